@@ -1,0 +1,103 @@
+//! `maamplan bench`: poses per second of several backends on the same
+//! queries, in one run, with their colliding counts side by side.
+
+use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs, UsageError};
+use anyhow::Result;
+use clap::Args;
+use maamplan::collide::sample::tilted_queries;
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Backends to compare, in order.
+    #[arg(long, value_enum, value_delimiter = ',', default_values_t = [BackendKind::Cpu, BackendKind::Parry])]
+    backends: Vec<BackendKind>,
+    /// Number of poses (waypoints evenly strided, each with tilted variants).
+    #[arg(long, default_value_t = 20_000)]
+    queries: usize,
+    /// Tilted variants per chosen waypoint (15°, 30°, 45°, 60°, ...).
+    #[arg(long, default_value_t = 3)]
+    tilts: usize,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// Run `bench`.
+pub fn run(a: BenchArgs) -> Result<()> {
+    if a.backends.is_empty() {
+        return Err(UsageError("--backends needs at least one backend".into()).into());
+    }
+    let loaded = a.scene.load()?;
+    let scene = &loaded.scene;
+    let queries = tilted_queries(&scene.waypoint_queries, a.queries, a.tilts);
+    println!(
+        "{}: {} queries ({} waypoints sampled, {} tilts each), {} triangles, {} threads",
+        loaded.source,
+        queries.len(),
+        queries.len() / (a.tilts + 1),
+        a.tilts,
+        scene.triangle_count(),
+        rayon::current_num_threads(),
+    );
+    let mut results = Vec::new();
+    let mut reference: Option<Vec<bool>> = None;
+    for kind in &a.backends {
+        let t0 = Instant::now();
+        let backend = kind.build(scene)?;
+        let setup = t0.elapsed().as_secs_f64();
+        let pb = progress(queries.len() as u64, backend.name());
+        let t1 = Instant::now();
+        let verdicts = evaluate_with_progress(backend.as_ref(), &queries, &pb)?;
+        let seconds = t1.elapsed().as_secs_f64();
+        let colliding = verdicts.iter().filter(|&&c| c).count();
+        let disagree = reference
+            .as_ref()
+            .map(|r| r.iter().zip(&verdicts).filter(|(a, b)| a != b).count());
+        let pps = queries.len() as f64 / seconds.max(1e-9);
+        println!(
+            "{:>8}: {:>12.0} poses/s  {:>8.3} s  colliding {:>7}  setup {:.3} s{}",
+            backend.name(),
+            pps,
+            seconds,
+            colliding,
+            setup,
+            disagree.map_or(String::new(), |d| format!("  disagreements vs {}: {d}", a.backends[0].name())),
+        );
+        results.push(json!({
+            "backend": backend.name(),
+            "poses_per_second": pps,
+            "seconds": seconds,
+            "setup_seconds": setup,
+            "colliding": colliding,
+            "disagreements_with_first": disagree,
+        }));
+        if reference.is_none() {
+            reference = Some(verdicts);
+        }
+    }
+    if results.len() > 1 {
+        let first = results[0]["poses_per_second"].as_f64().unwrap_or(0.0);
+        for r in &results[1..] {
+            let other = r["poses_per_second"].as_f64().unwrap_or(f64::NAN);
+            println!("{} / {}: {:.1}×", a.backends[0].name(), r["backend"].as_str().unwrap_or("?"), first / other);
+        }
+    }
+    if let Some(path) = &a.json {
+        write_json(
+            path,
+            &json!({
+                "source": loaded.source,
+                "queries": queries.len(),
+                "threads": rayon::current_num_threads(),
+                "results": results,
+            }),
+        )?;
+    }
+    Ok(())
+}

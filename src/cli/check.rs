@@ -1,0 +1,75 @@
+//! `maamplan check`: every waypoint in its own orientation, one verdict each,
+//! counted per layer.
+
+use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs};
+use anyhow::Result;
+use clap::Args;
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `check`.
+#[derive(Args, Debug)]
+pub struct CheckArgs {
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Collision evaluator.
+    #[arg(long, value_enum, default_value_t = BackendKind::Cpu)]
+    backend: BackendKind,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+/// Run `check`.
+pub fn run(a: CheckArgs) -> Result<()> {
+    let loaded = a.scene.load()?;
+    let scene = &loaded.scene;
+    let backend = a.backend.build(scene)?;
+    let queries = &scene.waypoint_queries;
+    let t0 = Instant::now();
+    let pb = progress(queries.len() as u64, "checking");
+    let verdicts = evaluate_with_progress(backend.as_ref(), queries, &pb)?;
+    let seconds = t0.elapsed().as_secs_f64();
+
+    let layers = &loaded.toolpath.layers;
+    let mut per_layer = vec![(0usize, 0usize); layers.len()];
+    for (i, &hit) in verdicts.iter().enumerate() {
+        let l = scene.waypoint_layers[i] as usize;
+        per_layer[l].0 += 1;
+        per_layer[l].1 += hit as usize;
+    }
+    let colliding: usize = per_layer.iter().map(|p| p.1).sum();
+
+    println!("{:>8} {:>10} {:>10}", "layer", "waypoints", "colliding");
+    for (l, (n, c)) in layers.iter().zip(&per_layer) {
+        println!("{:>8} {:>10} {:>10}", l.name, n, c);
+    }
+    println!(
+        "{}: {} of {} waypoints collide ({:.2} %) — backend {}, {:.3} s ({:.0} poses/s), scene {} triangles built in {:.2} s",
+        loaded.source,
+        colliding,
+        verdicts.len(),
+        100.0 * colliding as f64 / verdicts.len().max(1) as f64,
+        backend.name(),
+        seconds,
+        verdicts.len() as f64 / seconds.max(1e-9),
+        scene.triangle_count(),
+        loaded.seconds,
+    );
+    if let Some(path) = &a.json {
+        let v = json!({
+            "source": loaded.source,
+            "waypoints": verdicts.len(),
+            "colliding": colliding,
+            "backend": backend.name(),
+            "seconds": seconds,
+            "layers": layers.iter().zip(&per_layer).enumerate().map(|(i, (l, (n, c)))| json!({
+                "index": i, "name": l.name, "waypoints": n, "colliding": c,
+            })).collect::<Vec<_>>(),
+            "colliding_waypoints": verdicts.iter().enumerate().filter(|(_, &h)| h).map(|(i, _)| i).collect::<Vec<_>>(),
+        });
+        write_json(path, &v)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,287 @@
+//! The `cpu` backend: BVH traversal with distance-grid culling and exact
+//! triangle tests, rayon over the batch, no allocation per query.
+//!
+//! This file is the CPU mirror of `shaders/collide.wgsl`: each function has
+//! a twin of the same name there, with the same operations in the same
+//! order, so the two backends round identically.
+//!
+//! Per query: walk the part BVH, skipping nodes with `min_stamp >= cutoff`.
+//! Each node's bounding sphere is moved into the head frame and classified
+//! with the head's distance grid: wholly outside (skip), wholly inside (a
+//! collision: the node holds a triangle that exists), or unknown (descend).
+//! Leaf triangles get the same classification, then the exact tests: Möller
+//! against the head triangles its box touches, and, when nothing crosses,
+//! containment of one vertex (grid first, ray parity if the grid cannot say).
+
+use super::{check_finite, Backend, CollideError, Query};
+use crate::geometry::aabb::{point_box_distance, triangle_box_overlap};
+use crate::geometry::point_in_mesh::ray_crosses;
+use crate::geometry::tri_tri::tri_tri_overlap;
+use crate::geometry::{length, sub, V3};
+use crate::scene::{GpuHeadParams, GpuNode, GpuQuery, GpuTriangle, Scene};
+use rayon::prelude::*;
+
+/// Traversal stack depth; scene building rejects deeper BVHs.
+pub const STACK_SIZE: usize = 64;
+
+/// Borrowed views of the scene arrays, exactly what the shader binds.
+#[derive(Clone, Copy)]
+pub struct SceneView<'a> {
+    /// Part BVH nodes.
+    pub nodes: &'a [GpuNode],
+    /// Part triangles.
+    pub tris: &'a [GpuTriangle],
+    /// Head scalars.
+    pub head: &'a GpuHeadParams,
+    /// Head BVH nodes.
+    pub head_nodes: &'a [GpuNode],
+    /// Head triangles, head frame.
+    pub head_tris: &'a [GpuTriangle],
+    /// Head triangles, ray space.
+    pub head_ray_tris: &'a [GpuTriangle],
+    /// Head distance grid.
+    pub grid: &'a [f32],
+}
+
+impl<'a> SceneView<'a> {
+    /// View of a built scene.
+    pub fn new(scene: &'a Scene) -> Self {
+        SceneView {
+            nodes: &scene.part.nodes,
+            tris: &scene.part.triangles,
+            head: &scene.head.params,
+            head_nodes: &scene.head.nodes,
+            head_tris: &scene.head.triangles,
+            head_ray_tris: &scene.head.ray_triangles,
+            grid: &scene.head.grid,
+        }
+    }
+}
+
+/// The `cpu` backend.
+pub struct CpuBackend<'a> {
+    view: SceneView<'a>,
+}
+
+impl<'a> CpuBackend<'a> {
+    /// A backend over `scene`.
+    pub fn new(scene: &'a Scene) -> Self {
+        CpuBackend {
+            view: SceneView::new(scene),
+        }
+    }
+}
+
+impl Backend for CpuBackend<'_> {
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
+        check_finite(queries)?;
+        Ok(queries
+            .par_iter()
+            .with_min_len(64)
+            .map(|q| query_hits(&self.view, &q.to_gpu()))
+            .collect())
+    }
+}
+
+/// Part frame → head frame: `Rᵀ (p − tip)`.
+#[inline(always)]
+pub fn to_head(q: &GpuQuery, p: V3) -> V3 {
+    let d = [p[0] - q.rows[0][3], p[1] - q.rows[1][3], p[2] - q.rows[2][3]];
+    [
+        q.rows[0][0] * d[0] + q.rows[0][1] * d[1] + q.rows[0][2] * d[2],
+        q.rows[1][0] * d[0] + q.rows[1][1] * d[1] + q.rows[1][2] * d[2],
+        q.rows[2][0] * d[0] + q.rows[2][1] * d[1] + q.rows[2][2] * d[2],
+    ]
+}
+
+/// Classify the sphere `(c, r)` (head frame) against the head:
+/// 1 = wholly outside, -1 = wholly inside, 0 = cannot tell.
+#[inline(always)]
+pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> i32 {
+    let fx = (c[0] - h.grid_origin[0]) / h.cell;
+    let fy = (c[1] - h.grid_origin[1]) / h.cell;
+    let fz = (c[2] - h.grid_origin[2]) / h.cell;
+    let [nx, ny, nz] = h.grid_dims;
+    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
+    {
+        let d = point_box_distance(c, h.aabb_min, h.aabb_max);
+        return if d - h.margin > r { 1 } else { 0 };
+    }
+    let ix = (fx as u32).min(nx - 1);
+    let iy = (fy as u32).min(ny - 1);
+    let iz = (fz as u32).min(nz - 1);
+    let v = grid[((iz * ny + iy) * nx + ix) as usize];
+    let cc = [
+        h.grid_origin[0] + (ix as f32 + 0.5) * h.cell,
+        h.grid_origin[1] + (iy as f32 + 0.5) * h.cell,
+        h.grid_origin[2] + (iz as f32 + 0.5) * h.cell,
+    ];
+    let bound = v.abs() - length(sub(c, cc)) - h.margin;
+    if bound > r {
+        if v < 0.0 {
+            -1
+        } else {
+            1
+        }
+    } else {
+        0
+    }
+}
+
+/// Does the head at query `q` touch anything with `stamp < cutoff`?
+pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
+    let mut stack = [0u32; STACK_SIZE];
+    let mut sp = 1usize;
+    while sp > 0 {
+        sp -= 1;
+        let node = s.nodes[stack[sp] as usize];
+        if node.min_stamp >= q.cutoff {
+            continue;
+        }
+        let c = [
+            (node.min[0] + node.max[0]) * 0.5,
+            (node.min[1] + node.max[1]) * 0.5,
+            (node.min[2] + node.max[2]) * 0.5,
+        ];
+        let r = length([
+            (node.max[0] - node.min[0]) * 0.5,
+            (node.max[1] - node.min[1]) * 0.5,
+            (node.max[2] - node.min[2]) * 0.5,
+        ]);
+        let cls = classify(s.head, s.grid, to_head(q, c), r);
+        if cls > 0 {
+            continue;
+        }
+        if cls < 0 {
+            return true;
+        }
+        match node.leaf_range() {
+            Some((first, count)) => {
+                for t in first..first + count {
+                    let tri = &s.tris[t as usize];
+                    if tri.stamp < q.cutoff && tri_hits(s, q, tri) {
+                        return true;
+                    }
+                }
+            }
+            None => {
+                stack[sp] = node.packed;
+                stack[sp + 1] = node.packed + 1;
+                sp += 2;
+            }
+        }
+    }
+    false
+}
+
+/// One existing part triangle against the head.
+#[inline(always)]
+pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
+    let a = to_head(q, tri.v0);
+    let b = to_head(q, tri.v1);
+    let c = to_head(q, tri.v2);
+    let m = [
+        (a[0] + b[0] + c[0]) / 3.0,
+        (a[1] + b[1] + c[1]) / 3.0,
+        (a[2] + b[2] + c[2]) / 3.0,
+    ];
+    let r = length(sub(a, m)).max(length(sub(b, m))).max(length(sub(c, m)));
+    let cls = classify(s.head, s.grid, m, r);
+    if cls != 0 {
+        return cls < 0;
+    }
+    if tri_crosses_head(s, a, b, c) {
+        return true;
+    }
+    let cls = classify(s.head, s.grid, a, 0.0);
+    if cls != 0 {
+        return cls < 0;
+    }
+    point_in_head(s, a)
+}
+
+/// Möller tests against the head triangles whose BVH boxes the triangle's
+/// plane passes through.
+#[inline(always)]
+pub fn tri_crosses_head(s: &SceneView, a: V3, b: V3, c: V3) -> bool {
+    let tol = s.head.tol;
+    let mut stack = [0u32; STACK_SIZE];
+    let mut sp = 1usize;
+    while sp > 0 {
+        sp -= 1;
+        let node = s.head_nodes[stack[sp] as usize];
+        if !triangle_box_overlap(a, b, c, tol, node.min, node.max) {
+            continue;
+        }
+        match node.leaf_range() {
+            Some((first, count)) => {
+                for t in first..first + count {
+                    let h = &s.head_tris[t as usize];
+                    if tri_tri_overlap(a, b, c, h.v0, h.v1, h.v2, tol) {
+                        return true;
+                    }
+                }
+            }
+            None => {
+                stack[sp] = node.packed;
+                stack[sp + 1] = node.packed + 1;
+                sp += 2;
+            }
+        }
+    }
+    false
+}
+
+/// Ray parity from `p` (head frame) along the head's ray direction, over
+/// the head BVH.
+#[inline(always)]
+pub fn point_in_head(s: &SceneView, p: V3) -> bool {
+    let h = s.head;
+    let pr = [
+        h.ray_a[0] * p[0] + h.ray_a[1] * p[1] + h.ray_a[2] * p[2],
+        h.ray_b[0] * p[0] + h.ray_b[1] * p[1] + h.ray_b[2] * p[2],
+        h.ray_d[0] * p[0] + h.ray_d[1] * p[1] + h.ray_d[2] * p[2],
+    ];
+    let inv = [1.0 / h.ray_d[0], 1.0 / h.ray_d[1], 1.0 / h.ray_d[2]];
+    let tol = h.tol;
+    let mut inside = false;
+    let mut stack = [0u32; STACK_SIZE];
+    let mut sp = 1usize;
+    while sp > 0 {
+        sp -= 1;
+        let node = s.head_nodes[stack[sp] as usize];
+        // Slab test on the box grown by `tol` (the direction has no zero
+        // component), conservative: parity needs every crossed triangle.
+        let t0x = (node.min[0] - tol - p[0]) * inv[0];
+        let t1x = (node.max[0] + tol - p[0]) * inv[0];
+        let t0y = (node.min[1] - tol - p[1]) * inv[1];
+        let t1y = (node.max[1] + tol - p[1]) * inv[1];
+        let t0z = (node.min[2] - tol - p[2]) * inv[2];
+        let t1z = (node.max[2] + tol - p[2]) * inv[2];
+        let tmin = t0x.min(t1x).max(t0y.min(t1y)).max(t0z.min(t1z)).max(0.0);
+        let tmax = t0x.max(t1x).min(t0y.max(t1y)).min(t0z.max(t1z));
+        if tmax < tmin {
+            continue;
+        }
+        match node.leaf_range() {
+            Some((first, count)) => {
+                for t in first..first + count {
+                    let r = &s.head_ray_tris[t as usize];
+                    if ray_crosses(r.v0, r.v1, r.v2, pr) {
+                        inside = !inside;
+                    }
+                }
+            }
+            None => {
+                stack[sp] = node.packed;
+                stack[sp + 1] = node.packed + 1;
+                sp += 2;
+            }
+        }
+    }
+    inside
+}

@@ -1,0 +1,43 @@
+//! Collision evaluators: one trait, several backends that must agree.
+//!
+//! A backend takes a batch of [`Query`]s (head pose + cutoff stamp) and
+//! answers, per query, whether the head touches the platform or any part
+//! triangle with `stamp < cutoff` (crossing or contained; DESIGN.md).
+
+pub mod brute;
+pub mod cpu;
+pub mod parry;
+pub mod sample;
+
+pub use crate::scene::Query;
+
+/// What can go wrong evaluating queries.
+#[derive(Debug, thiserror::Error)]
+pub enum CollideError {
+    /// A query's pose has a NaN or infinite component.
+    #[error("query {0} has a non-finite pose")]
+    NonFinite(usize),
+    /// The chosen backend cannot run here.
+    #[error("{0}")]
+    Unavailable(String),
+}
+
+/// A batch collision evaluator.
+pub trait Backend: Sync {
+    /// Short name as used on the command line (`cpu`, `parry`, `gpu`).
+    fn name(&self) -> &'static str;
+    /// One verdict per query: `true` = collides.
+    fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError>;
+}
+
+/// Reject non-finite poses before any backend sees them.
+pub fn check_finite(queries: &[Query]) -> Result<(), CollideError> {
+    for (i, q) in queries.iter().enumerate() {
+        let p = &q.pose;
+        let finite = p.tip.iter().chain(p.cols.iter().flatten()).all(|c| c.is_finite());
+        if !finite {
+            return Err(CollideError::NonFinite(i));
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,163 @@
+//! The `parry` backend: the same semantics from parry3d's own BVH and
+//! intersection primitives, as fast as parry honestly allows. It is the
+//! baseline every speed claim is measured against.
+//!
+//! - Whole groups (the platform, a layer printed entirely before the
+//!   cutoff): one `intersection_test` of the head `TriMesh` against the
+//!   group's `TriMesh`, so parry's own BVH does the culling. If nothing
+//!   crosses, each connected component of the group lies wholly inside or
+//!   outside the head, so one `contains_point` per component decides
+//!   containment.
+//! - The layer the cutoff cuts: the group's BVH yields the triangles under
+//!   the head's box; each existing one is tested with `intersection_test`
+//!   (triangle vs head mesh) and, failing that, one vertex with
+//!   `contains_point`.
+//!
+//! Rayon parallelises over the batch.
+
+use super::{check_finite, Backend, CollideError, Query};
+use crate::geometry::Mesh;
+use crate::scene::Scene;
+use parry3d::bounding_volume::{Aabb, BoundingVolume};
+use parry3d::math::{Matrix, Pose, Rotation, Vector};
+use parry3d::query::{intersection_test, PointQuery};
+use parry3d::shape::{TriMesh, TriMeshFlags};
+use rayon::prelude::*;
+
+struct Group {
+    mesh: TriMesh,
+    stamps: Vec<u32>,
+    min_stamp: u32,
+    max_stamp: u32,
+    aabb: Aabb,
+    /// One vertex per connected component.
+    representatives: Vec<Vector>,
+}
+
+/// The `parry` backend.
+pub struct ParryBackend {
+    head: TriMesh,
+    groups: Vec<Group>,
+}
+
+fn vector(v: [f32; 3]) -> Vector {
+    Vector::new(v[0], v[1], v[2])
+}
+
+fn trimesh(m: &Mesh, flags: TriMeshFlags) -> Result<TriMesh, CollideError> {
+    TriMesh::with_flags(
+        m.vertices.iter().map(|v| vector(*v)).collect(),
+        m.triangles.clone(),
+        flags,
+    )
+    .map_err(|e| CollideError::Unavailable(format!("parry rejected a mesh: {e}")))
+}
+
+/// One vertex per connected component (union-find over shared vertices).
+fn component_representatives(m: &Mesh) -> Vec<Vector> {
+    let mut parent: Vec<u32> = (0..m.vertices.len() as u32).collect();
+    fn find(p: &mut [u32], mut x: u32) -> u32 {
+        while p[x as usize] != x {
+            p[x as usize] = p[p[x as usize] as usize];
+            x = p[x as usize];
+        }
+        x
+    }
+    for t in &m.triangles {
+        let a = find(&mut parent, t[0]);
+        for &v in &t[1..] {
+            let b = find(&mut parent, v);
+            parent[b as usize] = a;
+        }
+    }
+    let mut seen = vec![false; m.vertices.len()];
+    let mut reps = Vec::new();
+    for t in &m.triangles {
+        let r = find(&mut parent, t[0]);
+        if !seen[r as usize] {
+            seen[r as usize] = true;
+            reps.push(vector(m.vertices[t[0] as usize]));
+        }
+    }
+    reps
+}
+
+impl ParryBackend {
+    /// Build parry's structures for `scene`.
+    pub fn new(scene: &Scene) -> Result<Self, CollideError> {
+        // ORIENTED gives pseudo-normals, which `contains_point` needs.
+        let head = trimesh(&scene.head.mesh, TriMeshFlags::ORIENTED)?;
+        let groups = scene
+            .groups
+            .par_iter()
+            .map(|g| {
+                let mesh = trimesh(&g.mesh, TriMeshFlags::empty())?;
+                let (min_stamp, max_stamp) = g.stamp_range();
+                let aabb = mesh.local_aabb();
+                Ok(Group {
+                    representatives: component_representatives(&g.mesh),
+                    mesh,
+                    stamps: g.stamps.clone(),
+                    min_stamp,
+                    max_stamp,
+                    aabb,
+                })
+            })
+            .collect::<Result<Vec<_>, CollideError>>()?;
+        Ok(ParryBackend { head, groups })
+    }
+
+    fn hits(&self, q: &Query) -> bool {
+        let c = &q.pose.cols;
+        let rot = Rotation::from_mat3(&Matrix::from_cols(vector(c[0]), vector(c[1]), vector(c[2])));
+        let pose = Pose::from_parts(vector(q.pose.tip), rot);
+        let head_aabb = self.head.aabb(&pose);
+        let identity = Pose::identity();
+        for g in &self.groups {
+            if g.min_stamp >= q.cutoff || !g.aabb.intersects(&head_aabb) {
+                continue;
+            }
+            if g.max_stamp < q.cutoff {
+                let crossing = intersection_test(&pose, &self.head, &identity, &g.mesh)
+                    .map(|r| r.intersecting)
+                    .unwrap_or(true);
+                if crossing {
+                    return true;
+                }
+                for r in &g.representatives {
+                    if head_aabb.contains_local_point(*r) && self.head.contains_point(&pose, *r) {
+                        return true;
+                    }
+                }
+            } else {
+                for id in g.mesh.bvh().intersect_aabb(&head_aabb) {
+                    if g.stamps[id as usize] >= q.cutoff {
+                        continue;
+                    }
+                    let tri = g.mesh.triangle(id);
+                    let crossing = intersection_test(&pose, &self.head, &identity, &tri)
+                        .map(|r| r.intersecting)
+                        .unwrap_or(true);
+                    if crossing
+                        || (head_aabb.contains_local_point(tri.a)
+                            && self.head.contains_point(&pose, tri.a))
+                    {
+                        return true;
+                    }
+                }
+            }
+        }
+        false
+    }
+}
+
+impl Backend for ParryBackend {
+    fn name(&self) -> &'static str {
+        "parry"
+    }
+
+    fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
+        check_finite(queries)?;
+        Ok(queries.par_iter().map(|q| self.hits(q)).collect())
+    }
+}

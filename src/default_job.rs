@@ -1,0 +1,163 @@
+//! The embedded default job, generated in code so `maamplan check` runs with
+//! no input files: a dome printed as four concentric hemispherical shells
+//! (curved layers) on a flat platform, with a 45° cone head like the data
+//! set's. Near the rim the surface normals are almost horizontal, so the
+//! plain orientations drive the head into the platform; at the pole they
+//! are vertical, the singular region of a B/C rotary-table machine.
+
+use crate::geometry::Mesh;
+use crate::toolpath::{Layer, Toolpath, Waypoint};
+use std::f32::consts::PI;
+
+/// A toolpath with its head and platform.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// The toolpath, layer surfaces included.
+    pub toolpath: Toolpath,
+    /// The head in its own frame.
+    pub head: Mesh,
+    /// The platform.
+    pub platform: Mesh,
+}
+
+/// Shells: inner radius, layer height, count, polar extent, spacing.
+const R0: f32 = 12.0;
+const LAYER_HEIGHT: f32 = 0.8;
+const LAYERS: usize = 4;
+const THETA_MAX: f32 = 88.0 * PI / 180.0;
+const SPACING: f32 = 1.5;
+
+/// The default job.
+pub fn job() -> Job {
+    let layers = (0..LAYERS)
+        .map(|k| {
+            let r = R0 + k as f32 * LAYER_HEIGHT;
+            Layer {
+                name: k.to_string(),
+                waypoints: shell_waypoints(r),
+                surface: Some(shell_surface(r)),
+            }
+        })
+        .collect();
+    Job {
+        toolpath: Toolpath { layers },
+        head: cone_head(20.0, 20.0, 30.0, 64),
+        platform: box_mesh([-100.0, -100.0, -5.0], [100.0, 100.0, 0.0]),
+    }
+}
+
+fn on_sphere(r: f32, theta: f32, phi: f32) -> ([f32; 3], [f32; 3]) {
+    let n = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
+    ([n[0] * r, n[1] * r, n[2] * r], n)
+}
+
+/// Rings from the rim up to the pole, each ring in print order.
+fn shell_waypoints(r: f32) -> Vec<Waypoint> {
+    let rings = (THETA_MAX * r / SPACING).ceil() as usize;
+    let mut out = Vec::new();
+    for i in (0..=rings).rev() {
+        let theta = THETA_MAX * i as f32 / rings as f32;
+        let around = ((2.0 * PI * r * theta.sin()) / SPACING).ceil().max(1.0) as usize;
+        for j in 0..around {
+            let phi = 2.0 * PI * j as f32 / around as f32;
+            let (pos, dir) = on_sphere(r, theta, phi);
+            out.push(Waypoint { pos, dir });
+        }
+    }
+    out
+}
+
+/// The shell surface: a latitude–longitude grid with a fan at the pole.
+fn shell_surface(r: f32) -> Mesh {
+    let rings = (THETA_MAX * r / SPACING).ceil() as u32;
+    let seg = ((2.0 * PI * r) / SPACING).ceil() as u32;
+    let mut m = Mesh::default();
+    m.vertices.push([0.0, 0.0, r]);
+    for i in 1..=rings {
+        let theta = THETA_MAX * i as f32 / rings as f32;
+        for j in 0..seg {
+            m.vertices.push(on_sphere(r, theta, 2.0 * PI * j as f32 / seg as f32).0);
+        }
+    }
+    let at = |i: u32, j: u32| 1 + (i - 1) * seg + (j % seg);
+    for j in 0..seg {
+        m.triangles.push([0, at(1, j), at(1, j + 1)]);
+    }
+    for i in 1..rings {
+        for j in 0..seg {
+            m.triangles.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            m.triangles.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    m
+}
+
+/// A closed head: a cone of half-angle `atan(radius / cone_height)` from
+/// the tip at the origin, then a cylinder up to `height`, axis +z.
+pub fn cone_head(radius: f32, cone_height: f32, height: f32, segments: u32) -> Mesh {
+    let mut m = Mesh::default();
+    m.vertices.push([0.0, 0.0, 0.0]); // 0: tip
+    m.vertices.push([0.0, 0.0, height]); // 1: top centre
+    let ring = |z: f32, j: u32| {
+        let a = 2.0 * PI * j as f32 / segments as f32;
+        [radius * a.cos(), radius * a.sin(), z]
+    };
+    for j in 0..segments {
+        m.vertices.push(ring(cone_height, j)); // 2 + j
+    }
+    for j in 0..segments {
+        m.vertices.push(ring(height, j)); // 2 + segments + j
+    }
+    let lo = |j: u32| 2 + (j % segments);
+    let hi = |j: u32| 2 + segments + (j % segments);
+    for j in 0..segments {
+        m.triangles.push([0, lo(j + 1), lo(j)]);
+        m.triangles.push([lo(j), lo(j + 1), hi(j + 1)]);
+        m.triangles.push([lo(j), hi(j + 1), hi(j)]);
+        m.triangles.push([1, hi(j), hi(j + 1)]);
+    }
+    m
+}
+
+/// A closed axis-aligned box, outward-facing.
+pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
+    let vertices = (0..8)
+        .map(|i| {
+            [
+                if i & 1 == 0 { min[0] } else { max[0] },
+                if i & 2 == 0 { min[1] } else { max[1] },
+                if i & 4 == 0 { min[2] } else { max[2] },
+            ]
+        })
+        .collect();
+    let triangles = vec![
+        [0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
+        [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5],
+    ];
+    Mesh { vertices, triangles }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn head_and_platform_are_closed_and_outward() {
+        let h = cone_head(20.0, 20.0, 30.0, 32);
+        assert_eq!(h.open_edges(), 0);
+        assert!(h.signed_volume() > 0.0);
+        let b = box_mesh([0.0; 3], [1.0, 2.0, 3.0]);
+        assert_eq!(b.open_edges(), 0);
+        assert!((b.signed_volume() - 6.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn default_job_shape() {
+        let j = job();
+        assert_eq!(j.toolpath.layers.len(), LAYERS);
+        let n = j.toolpath.waypoint_count();
+        assert!((500..5000).contains(&n), "{n} waypoints");
+        // Passes through the singular region (vertical normals at the pole).
+        assert!(j.toolpath.iter().any(|(_, w)| w.dir[2] > 0.999));
+    }
+}

@@ -1,0 +1,218 @@
+//! Toolpaths: a folder in the zhang2021 layout (`waypoint/<k>.txt` and
+//! `layer/<k>.obj`, sorted naturally) or a single waypoint file.
+//!
+//! A waypoint line is `px py pz nx ny nz` (spaces or commas); blank lines
+//! and lines starting with `#` are skipped. Normals are normalised.
+
+use super::mesh::load_mesh;
+use super::{read_to_string, InputError, Placement};
+use crate::toolpath::{Layer, Toolpath, Waypoint};
+use std::path::{Path, PathBuf};
+
+/// Load a toolpath folder or a single waypoint file.
+pub fn load_toolpath(path: &Path, place: &Placement) -> Result<Toolpath, InputError> {
+    if path.is_file() {
+        let waypoints = load_waypoints(path, place)?;
+        let name = stem(path);
+        return Ok(Toolpath {
+            layers: vec![Layer {
+                name,
+                waypoints,
+                surface: None,
+            }],
+        });
+    }
+    if !path.is_dir() {
+        return Err(InputError::file(
+            path,
+            "no such toolpath: give a folder with waypoint/ (and layer/) or a waypoint file",
+        ));
+    }
+    let wdir = path.join("waypoint");
+    let ldir = path.join("layer");
+    let waypoint_files = list_sorted(&wdir, &["txt"])?;
+    if waypoint_files.is_empty() {
+        return Err(InputError::file(
+            &wdir,
+            "no waypoint files (*.txt): a toolpath folder needs waypoint/<k>.txt per layer",
+        ));
+    }
+    let layer_files = if ldir.is_dir() {
+        list_sorted(&ldir, &["obj", "stl", "gltf", "glb"])?
+    } else {
+        Vec::new()
+    };
+    if !layer_files.is_empty() && layer_files.len() != waypoint_files.len() {
+        let names: Vec<String> = layer_files.iter().map(|p| stem(p)).collect();
+        let missing = waypoint_files
+            .iter()
+            .map(|p| stem(p))
+            .find(|s| !names.contains(s))
+            .map(|s| format!(" (no layer surface for waypoint/{s}.txt)"))
+            .unwrap_or_default();
+        return Err(InputError::file(
+            path,
+            format!(
+                "{} waypoint files but {} layer files{missing}: every layer needs both waypoint/<k>.txt and layer/<k>.obj",
+                waypoint_files.len(),
+                layer_files.len()
+            ),
+        ));
+    }
+    let mut layers = Vec::with_capacity(waypoint_files.len());
+    for (i, wfile) in waypoint_files.iter().enumerate() {
+        let name = stem(wfile);
+        let surface = match layer_files.get(i) {
+            Some(lfile) => {
+                if stem(lfile) != name {
+                    return Err(InputError::file(
+                        lfile,
+                        format!("expected the layer surface for waypoint/{name}.txt here: name layer files like their waypoint files"),
+                    ));
+                }
+                let m = load_mesh(lfile)?;
+                Some(m.map_vertices(|v| place.point(v)))
+            }
+            None => None,
+        };
+        layers.push(Layer {
+            waypoints: load_waypoints(wfile, place)?,
+            name,
+            surface,
+        });
+    }
+    Ok(Toolpath { layers })
+}
+
+/// Parse one waypoint file.
+pub fn load_waypoints(path: &Path, place: &Placement) -> Result<Vec<Waypoint>, InputError> {
+    let text = read_to_string(path)?;
+    parse_waypoints(path, &text, place)
+}
+
+/// Parse waypoint text (`path` only names the source in errors).
+pub fn parse_waypoints(
+    path: &Path,
+    text: &str,
+    place: &Placement,
+) -> Result<Vec<Waypoint>, InputError> {
+    let mut out = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let n = i + 1;
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .collect();
+        if fields.len() != 6 {
+            return Err(InputError::at(
+                path,
+                n,
+                format!(
+                    "expected 6 numbers (px py pz nx ny nz), found {}: fix or remove this line",
+                    fields.len()
+                ),
+            ));
+        }
+        let mut v = [0f32; 6];
+        for (k, f) in fields.iter().enumerate() {
+            let x: f32 = f.parse().map_err(|_| {
+                InputError::at(path, n, format!("field {} '{f}' is not a number: fix this line", k + 1))
+            })?;
+            if !x.is_finite() {
+                return Err(InputError::at(
+                    path,
+                    n,
+                    format!("field {} is {f}: every coordinate must be a finite number", k + 1),
+                ));
+            }
+            v[k] = x;
+        }
+        let len = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
+        if !(len > 1e-12) {
+            return Err(InputError::at(
+                path,
+                n,
+                "zero-length nozzle direction (nx ny nz): give the direction from the tip into the head",
+            ));
+        }
+        out.push(Waypoint {
+            pos: place.point([v[0], v[1], v[2]]),
+            dir: place.direction([v[3] / len, v[4] / len, v[5] / len]),
+        });
+    }
+    if out.is_empty() {
+        return Err(InputError::file(
+            path,
+            "empty layer (no waypoints): remove the file or add its waypoints",
+        ));
+    }
+    Ok(out)
+}
+
+fn stem(p: &Path) -> String {
+    p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+}
+
+/// Files with one of `exts` in `dir`, sorted naturally: by leading number,
+/// then by the rest of the name (`2 < 10 < 10S`).
+fn list_sorted(dir: &Path, exts: &[&str]) -> Result<Vec<PathBuf>, InputError> {
+    let rd = std::fs::read_dir(dir).map_err(|e| {
+        InputError::file(dir, format!("cannot list the folder ({e}): check the toolpath layout"))
+    })?;
+    let mut files: Vec<PathBuf> = rd
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .map(|e| exts.iter().any(|x| e.eq_ignore_ascii_case(x)))
+                    .unwrap_or(false)
+        })
+        .collect();
+    files.sort_by_cached_key(|p| natural_key(&stem(p)));
+    Ok(files)
+}
+
+/// Sort key: (leading number or max, remainder).
+pub fn natural_key(name: &str) -> (u64, String) {
+    let digits: String = name.chars().take_while(|c| c.is_ascii_digit()).collect();
+    let num = digits.parse().unwrap_or(u64::MAX);
+    (num, name[digits.len()..].to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn natural_order() {
+        let mut v = vec!["10", "2", "1", "10S", "0"];
+        v.sort_by_key(|s| natural_key(s));
+        assert_eq!(v, vec!["0", "1", "2", "10", "10S"]);
+    }
+
+    #[test]
+    fn parses_and_normalises() {
+        let p = Placement {
+            y_up: false,
+            offset: [0.0, 0.0, 1.0],
+        };
+        let w = parse_waypoints(Path::new("x"), "# c\n1 2 3 0 0 2\n\n4,5,6,3,0,4\n", &p).unwrap();
+        assert_eq!(w.len(), 2);
+        assert_eq!(w[0].pos, [1.0, 2.0, 4.0]);
+        assert_eq!(w[0].dir, [0.0, 0.0, 1.0]);
+        assert!((w[1].dir[0] - 0.6).abs() < 1e-6);
+    }
+
+    #[test]
+    fn y_up_rotates() {
+        let p = Placement {
+            y_up: true,
+            offset: [0.0; 3],
+        };
+        assert_eq!(p.direction([0.0, 1.0, 0.0]), [0.0, 0.0, 1.0]);
+    }
+}

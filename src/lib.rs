@@ -1,0 +1,24 @@
+//! # maamplan
+//!
+//! Collision-free, singularity-aware motion planning for multi-axis additive
+//! manufacturing. This crate answers one question millions of times: *with
+//! the print head at this pose, does it touch the platform or anything
+//! already printed?* — exactly (triangle-level), for batches of poses.
+//!
+//! ```
+//! use maamplan::{collide::{cpu::CpuBackend, Backend}, default_job, scene::{Scene, SceneConfig}};
+//!
+//! let job = default_job::job();
+//! let scene = Scene::build(&job.toolpath, &job.head, &job.platform, &SceneConfig::default()).unwrap();
+//! let verdicts = CpuBackend::new(&scene).evaluate(&scene.waypoint_queries).unwrap();
+//! assert_eq!(verdicts.len(), job.toolpath.waypoint_count());
+//! assert!(verdicts.iter().any(|&c| c), "the embedded default has colliding waypoints");
+//! ```
+#![warn(missing_docs)]
+
+pub mod collide;
+pub mod default_job;
+pub mod geometry;
+pub mod io;
+pub mod scene;
+pub mod toolpath;

@@ -1,0 +1,35 @@
+//! The `maamplan` binary: parse the command line, run, map errors to exit
+//! codes (2 for user errors, 1 for internal failures).
+
+mod cli;
+
+use clap::Parser;
+use maamplan::io::InputError;
+use maamplan::scene::SceneError;
+use std::process::ExitCode;
+
+fn main() -> ExitCode {
+    let args = cli::Cli::parse();
+    match cli::run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // One line: the outermost context, then the cause.
+            let msg = e.chain().map(|c| c.to_string()).collect::<Vec<_>>().join(": ");
+            eprintln!("error: {msg}");
+            ExitCode::from(exit_code(&e))
+        }
+    }
+}
+
+/// 2 when the user can fix it (inputs, arguments), 1 otherwise.
+fn exit_code(e: &anyhow::Error) -> u8 {
+    for cause in e.chain() {
+        if cause.is::<InputError>() || cause.is::<cli::UsageError>() {
+            return 2;
+        }
+        if let Some(s) = cause.downcast_ref::<SceneError>() {
+            return if matches!(s, SceneError::Internal(_)) { 1 } else { 2 };
+        }
+    }
+    1
+}

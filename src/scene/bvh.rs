@@ -1,0 +1,109 @@
+//! Builds the GPU-ready BVH over stamped triangles with `obvhs` (PLOC), then
+//! re-lays it out as [`GpuNode`]s whose `min_stamp` lets a query skip every
+//! subtree printed after its cutoff.
+
+use super::gpu_types::{GpuNode, GpuTriangle, MAX_LEAF_TRIS, MAX_TRIS};
+use super::SceneError;
+use crate::collide::cpu::STACK_SIZE;
+use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::triangle::Triangle;
+use obvhs::BvhBuildParams;
+use std::time::Duration;
+
+/// A BVH and its triangles, reordered so each leaf's triangles are contiguous.
+#[derive(Clone, Debug)]
+pub struct StampedBvh {
+    /// Nodes; the root is node 0.
+    pub nodes: Vec<GpuNode>,
+    /// Triangles in leaf order.
+    pub triangles: Vec<GpuTriangle>,
+}
+
+/// Build over `tris` (any order). `max_leaf` ≤ 16 triangles per leaf.
+pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneError> {
+    if tris.is_empty() {
+        return Err(SceneError::Empty("the scene has no triangles".into()));
+    }
+    if tris.len() as u64 >= MAX_TRIS as u64 {
+        return Err(SceneError::TooLarge(tris.len()));
+    }
+    let obv: Vec<Triangle> = tris
+        .iter()
+        .map(|t| Triangle {
+            v0: t.v0.into(),
+            v1: t.v1.into(),
+            v2: t.v2.into(),
+        })
+        .collect();
+    let mut params = BvhBuildParams::fast_build();
+    params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
+    let bvh = build_bvh2_from_tris(&obv, params, &mut Duration::default());
+
+    let triangles: Vec<GpuTriangle> = bvh
+        .primitive_indices
+        .iter()
+        .map(|&i| tris[i as usize])
+        .collect();
+    let mut nodes = Vec::with_capacity(bvh.nodes.len());
+    for n in &bvh.nodes {
+        let packed = if n.prim_count > 0 {
+            if n.prim_count > MAX_LEAF_TRIS {
+                return Err(SceneError::Internal(format!(
+                    "BVH leaf with {} triangles (max {MAX_LEAF_TRIS})",
+                    n.prim_count
+                )));
+            }
+            GpuNode::pack_leaf(n.first_index, n.prim_count)
+        } else {
+            n.first_index
+        };
+        nodes.push(GpuNode {
+            min: n.aabb.min.into(),
+            packed,
+            max: n.aabb.max.into(),
+            min_stamp: u32::MAX,
+        });
+    }
+    // Post-order sweep (explicit stack: obvhs' reinsertion may place a child
+    // before its parent) filling every node's minimum stamp.
+    let mut stack = vec![(0usize, false)];
+    while let Some((i, children_done)) = stack.pop() {
+        match nodes[i].leaf_range() {
+            Some((first, count)) => {
+                nodes[i].min_stamp = (first..first + count)
+                    .map(|t| triangles[t as usize].stamp)
+                    .min()
+                    .unwrap_or(u32::MAX);
+            }
+            None => {
+                let l = nodes[i].packed as usize;
+                if children_done {
+                    nodes[i].min_stamp = nodes[l].min_stamp.min(nodes[l + 1].min_stamp);
+                } else {
+                    stack.push((i, true));
+                    stack.push((l, false));
+                    stack.push((l + 1, false));
+                }
+            }
+        }
+    }
+    // Traversal keeps at most depth + 1 entries on its fixed-size stack.
+    let mut depth = vec![0u32; nodes.len()];
+    let mut max_depth = 0;
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        max_depth = max_depth.max(depth[i]);
+        if nodes[i].leaf_range().is_none() {
+            let l = nodes[i].packed as usize;
+            depth[l] = depth[i] + 1;
+            depth[l + 1] = depth[i] + 1;
+            stack.extend([l, l + 1]);
+        }
+    }
+    if max_depth as usize + 2 > STACK_SIZE {
+        return Err(SceneError::Internal(format!(
+            "BVH depth {max_depth} exceeds the traversal stack ({STACK_SIZE})"
+        )));
+    }
+    Ok(StampedBvh { nodes, triangles })
+}

@@ -1,0 +1,111 @@
+//! The `#[repr(C)]` Pod structs that go to the GPU as they are. Each has a
+//! WGSL twin in `shaders/shared/types.wgsl`; keep the two in sync (the size
+//! assertions below and the naga layout test catch drift).
+
+use bytemuck::{Pod, Zeroable};
+
+/// One triangle of the stamped part (or of the head), 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    /// First vertex.
+    pub v0: [f32; 3],
+    /// Print stamp: present for queries whose cutoff is greater (0 = platform).
+    pub stamp: u32,
+    /// Second vertex.
+    pub v1: [f32; 3],
+    /// Layer index (`u32::MAX` for the platform and the head).
+    pub layer: u32,
+    /// Third vertex.
+    pub v2: [f32; 3],
+    /// Index of the triangle before BVH reordering (for diagnostics).
+    pub source: u32,
+}
+
+/// One BVH node, 32 bytes. Inner nodes store the left child index (the
+/// right child is the next node); leaves set the top bit and pack
+/// `count - 1` (4 bits) and the first triangle (27 bits).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuNode {
+    /// Box lower corner.
+    pub min: [f32; 3],
+    /// Child index, or the packed leaf range.
+    pub packed: u32,
+    /// Box upper corner.
+    pub max: [f32; 3],
+    /// Smallest stamp below this node: skip it when `min_stamp >= cutoff`.
+    pub min_stamp: u32,
+}
+
+/// Leaf flag in [`GpuNode::packed`].
+pub const LEAF_BIT: u32 = 0x8000_0000;
+/// Largest triangle count one leaf can hold.
+pub const MAX_LEAF_TRIS: u32 = 16;
+/// Largest number of triangles one BVH can index (27 bits).
+pub const MAX_TRIS: u32 = 1 << 27;
+
+impl GpuNode {
+    /// `Some((first, count))` for a leaf.
+    #[inline(always)]
+    pub fn leaf_range(&self) -> Option<(u32, u32)> {
+        if self.packed & LEAF_BIT != 0 {
+            Some((self.packed & (MAX_TRIS - 1), ((self.packed >> 27) & 0xF) + 1))
+        } else {
+            None
+        }
+    }
+
+    /// Pack a leaf range.
+    pub fn pack_leaf(first: u32, count: u32) -> u32 {
+        debug_assert!(count >= 1 && count <= MAX_LEAF_TRIS && first < MAX_TRIS);
+        LEAF_BIT | ((count - 1) << 27) | first
+    }
+}
+
+/// One collision query, 64 bytes: the head pose and the cutoff stamp.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuQuery {
+    /// Rows of Rᵀ (the columns of the head→part rotation); `.w` holds the
+    /// tip coordinate of that axis.
+    pub rows: [[f32; 4]; 3],
+    /// Part triangles with `stamp < cutoff` exist for this query.
+    pub cutoff: u32,
+    /// Padding to 16-byte multiples.
+    pub _pad: [u32; 3],
+}
+
+/// The head's scalar parameters, 112 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuHeadParams {
+    /// Head bounding box lower corner (head frame).
+    pub aabb_min: [f32; 3],
+    /// Contact tolerance (mm).
+    pub tol: f32,
+    /// Head bounding box upper corner.
+    pub aabb_max: [f32; 3],
+    /// Conservative margin on distance bounds (mm).
+    pub margin: f32,
+    /// Distance grid origin (corner of cell 0).
+    pub grid_origin: [f32; 3],
+    /// Grid cell size (mm).
+    pub cell: f32,
+    /// Grid cell counts along x, y, z.
+    pub grid_dims: [u32; 3],
+    /// Number of head triangles.
+    pub tri_count: u32,
+    /// Ray-space frame for containment: first two rows; the third is in
+    /// `ray_d`.
+    pub ray_a: [f32; 4],
+    /// Second ray-frame row.
+    pub ray_b: [f32; 4],
+    /// Ray direction.
+    pub ray_d: [f32; 4],
+}
+
+const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
+const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuQuery>() == 64);
+const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 112);

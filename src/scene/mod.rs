@@ -1,0 +1,216 @@
+//! The printed-so-far scene: the platform and every layer surface as one
+//! soup of stamped triangles under one BVH, plus the head. A triangle with
+//! stamp `s` exists for queries whose cutoff is greater than `s`; the
+//! platform has stamp 0 and layer surface `k`'s triangles take the global
+//! index + 1 of the nearest waypoint of layer `k` (DESIGN.md).
+
+pub mod bvh;
+pub mod gpu_types;
+pub mod head;
+mod stamp;
+
+pub use gpu_types::{GpuHeadParams, GpuNode, GpuQuery, GpuTriangle};
+pub use head::{Head, HeadConfig};
+
+use crate::geometry::{Aabb, Mesh, Pose};
+use crate::toolpath::Toolpath;
+use bvh::StampedBvh;
+
+/// What can go wrong building a scene.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// A required mesh or the whole scene has no triangles.
+    #[error("{0}")]
+    Empty(String),
+    /// The head mesh has holes, so "inside the head" is undefined.
+    #[error("the head mesh is not closed ({0} open edges): containment needs a watertight head; repair it (e.g. close holes in a mesh editor)")]
+    HeadNotClosed(usize),
+    /// The head mesh's triangles face inwards.
+    #[error("the head mesh is inside out (negative volume): flip its triangle winding")]
+    HeadInsideOut,
+    /// More triangles than one BVH can index.
+    #[error("{0} triangles exceed the 134,217,728 one BVH can index: split the part into layer ranges")]
+    TooLarge(usize),
+    /// A bug, not a user error.
+    #[error("internal error: {0}")]
+    Internal(String),
+}
+
+/// Scene construction settings.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SceneConfig {
+    /// Head data settings (tip clearance, grid resolution).
+    pub head: HeadConfig,
+    /// Split part and platform triangles longer than this (mm); default:
+    /// an eighth of the head's size, so a triangle never dwarfs the head.
+    pub max_edge: Option<f32>,
+}
+
+/// A group of part triangles that stay together for the parry backend: the
+/// platform, or one layer surface. `stamps[i]` belongs to triangle `i`.
+#[derive(Clone, Debug)]
+pub struct PartGroup {
+    /// The group's (subdivided) mesh.
+    pub mesh: Mesh,
+    /// Stamp per triangle.
+    pub stamps: Vec<u32>,
+    /// Layer index, `None` for the platform.
+    pub layer: Option<usize>,
+}
+
+impl PartGroup {
+    /// Smallest and largest stamp in the group.
+    pub fn stamp_range(&self) -> (u32, u32) {
+        let lo = self.stamps.iter().copied().min().unwrap_or(u32::MAX);
+        let hi = self.stamps.iter().copied().max().unwrap_or(0);
+        (lo, hi)
+    }
+}
+
+/// Everything the evaluators need, built once per job.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    /// Platform + part triangles under one BVH, GPU-ready.
+    pub part: StampedBvh,
+    /// The head.
+    pub head: Head,
+    /// Contact tolerance (mm), scaled to the scene.
+    pub tol: f32,
+    /// The same triangles grouped by source (platform first, then layers).
+    pub groups: Vec<PartGroup>,
+    /// Every waypoint's pose (minimal rotation from +z) and cutoff, in print order.
+    pub waypoint_queries: Vec<Query>,
+    /// Layer index of each waypoint.
+    pub waypoint_layers: Vec<u32>,
+}
+
+/// A collision query: the head at `pose`, against everything with
+/// `stamp < cutoff`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Query {
+    /// The head pose.
+    pub pose: Pose,
+    /// Cutoff stamp.
+    pub cutoff: u32,
+}
+
+impl Query {
+    /// The GPU form; the CPU backend evaluates this same form.
+    pub fn to_gpu(&self) -> GpuQuery {
+        let c = &self.pose.cols;
+        let t = &self.pose.tip;
+        GpuQuery {
+            rows: [
+                [c[0][0], c[0][1], c[0][2], t[0]],
+                [c[1][0], c[1][1], c[1][2], t[1]],
+                [c[2][0], c[2][1], c[2][2], t[2]],
+            ],
+            cutoff: self.cutoff,
+            _pad: [0; 3],
+        }
+    }
+}
+
+impl Scene {
+    /// Build the scene from a toolpath (layer surfaces optional), the head
+    /// (closed, its own frame) and the platform (part frame).
+    pub fn build(
+        toolpath: &Toolpath,
+        head_mesh: &Mesh,
+        platform: &Mesh,
+        cfg: &SceneConfig,
+    ) -> Result<Scene, SceneError> {
+        let (platform, _) = platform.welded().without_degenerate();
+        if platform.triangles.is_empty() {
+            return Err(SceneError::Empty(
+                "the platform mesh has no triangles".into(),
+            ));
+        }
+        let head_extent = Aabb::from_points(&head_mesh.vertices).extent();
+        let max_edge = cfg.max_edge.unwrap_or(head_extent / 8.0).max(1e-3);
+
+        // Scale for the tolerance: the largest coordinate anywhere.
+        let max_abs = |m: &Mesh| {
+            m.vertices
+                .iter()
+                .flatten()
+                .fold(0.0f32, |a, c| a.max(c.abs()))
+        };
+        let mut scale = head_extent.max(max_abs(&platform));
+        for l in &toolpath.layers {
+            if let Some(s) = &l.surface {
+                scale = scale.max(max_abs(s));
+            }
+            for w in &l.waypoints {
+                scale = scale.max(w.pos.iter().fold(0.0f32, |a, c| a.max(c.abs())));
+            }
+        }
+        let tol = (2e-6 * scale).max(1e-6);
+
+        let head = Head::build(head_mesh, &cfg.head, tol)?;
+
+        let mut groups = Vec::with_capacity(toolpath.layers.len() + 1);
+        let platform = platform.subdivided(max_edge);
+        groups.push(PartGroup {
+            stamps: vec![0; platform.triangles.len()],
+            mesh: platform,
+            layer: None,
+        });
+        let offsets = toolpath.layer_offsets();
+        for (k, layer) in toolpath.layers.iter().enumerate() {
+            let Some(surface) = &layer.surface else {
+                continue;
+            };
+            let (surface, _) = surface.welded().without_degenerate();
+            if surface.triangles.is_empty() || layer.waypoints.is_empty() {
+                continue;
+            }
+            let mesh = surface.subdivided(max_edge);
+            let stamps = stamp::nearest_waypoint_stamps(&mesh, &layer.waypoints, offsets[k]);
+            groups.push(PartGroup {
+                mesh,
+                stamps,
+                layer: Some(k),
+            });
+        }
+
+        let mut soup = Vec::new();
+        for g in &groups {
+            for (i, &stamp) in g.stamps.iter().enumerate() {
+                let [v0, v1, v2] = g.mesh.corners(i);
+                soup.push(GpuTriangle {
+                    v0,
+                    stamp,
+                    v1,
+                    layer: g.layer.map_or(u32::MAX, |l| l as u32),
+                    v2,
+                    source: soup.len() as u32,
+                });
+            }
+        }
+        let part = bvh::build(&soup, 4)?;
+
+        let mut waypoint_queries = Vec::with_capacity(toolpath.waypoint_count());
+        let mut waypoint_layers = Vec::with_capacity(toolpath.waypoint_count());
+        for (g, (k, w)) in toolpath.iter().enumerate() {
+            waypoint_queries.push(Query {
+                pose: Pose::from_axis(w.pos, w.dir),
+                cutoff: g as u32 + 1,
+            });
+            waypoint_layers.push(k as u32);
+        }
+        Ok(Scene {
+            part,
+            head,
+            tol,
+            groups,
+            waypoint_queries,
+            waypoint_layers,
+        })
+    }
+
+    /// Number of part + platform triangles.
+    pub fn triangle_count(&self) -> usize {
+        self.part.triangles.len()
+    }
+}
