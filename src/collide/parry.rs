@@ -8,10 +8,12 @@
 //!   crosses, each connected component of the group lies wholly inside or
 //!   outside the head, so one `contains_point` per component decides
 //!   containment.
-//! - The layer the cutoff cuts: the group's BVH yields the triangles under
-//!   the head's box; each existing one is tested with `intersection_test`
-//!   (triangle vs head mesh) and, failing that, one vertex with
-//!   `contains_point`.
+//! - The layer the cutoff cuts is also kept as chunks of consecutive stamps
+//!   (each its own `TriMesh`): chunks printed entirely before the cutoff
+//!   get the whole-group test; in the one chunk the cutoff cuts, the
+//!   chunk's BVH yields the triangles under the head's box and each existing
+//!   one is tested with `intersection_test` (triangle vs head mesh) and,
+//!   failing that, one vertex with `contains_point`.
 //!
 //! Rayon parallelises over the batch.
 
@@ -25,6 +27,9 @@ use parry3d::shape::{TriMesh, TriMeshFlags};
 use rayon::prelude::*;
 
 struct Group {
+    /// The layer's trailing pieces of consecutive stamps, used instead of
+    /// the whole mesh when the cutoff falls inside this group.
+    chunks: Vec<Group>,
     mesh: TriMesh,
     stamps: Vec<u32>,
     min_stamp: u32,
@@ -82,6 +87,24 @@ fn component_representatives(m: &Mesh) -> Vec<Vector> {
     reps
 }
 
+/// Triangles per chunk of a layer the cutoff cuts.
+const CHUNK: usize = 512;
+
+fn group(m: &Mesh, stamps: Vec<u32>, chunks: Vec<Group>) -> Result<Group, CollideError> {
+    let mesh = trimesh(m, TriMeshFlags::empty())?;
+    let min_stamp = stamps.iter().copied().min().unwrap_or(u32::MAX);
+    let max_stamp = stamps.iter().copied().max().unwrap_or(0);
+    Ok(Group {
+        aabb: mesh.local_aabb(),
+        representatives: component_representatives(m),
+        chunks,
+        mesh,
+        stamps,
+        min_stamp,
+        max_stamp,
+    })
+}
+
 impl ParryBackend {
     /// Build parry's structures for `scene`.
     pub fn new(scene: &Scene) -> Result<Self, CollideError> {
@@ -91,17 +114,20 @@ impl ParryBackend {
             .groups
             .par_iter()
             .map(|g| {
-                let mesh = trimesh(&g.mesh, TriMeshFlags::empty())?;
-                let (min_stamp, max_stamp) = g.stamp_range();
-                let aabb = mesh.local_aabb();
-                Ok(Group {
-                    representatives: component_representatives(&g.mesh),
-                    mesh,
-                    stamps: g.stamps.clone(),
-                    min_stamp,
-                    max_stamp,
-                    aabb,
-                })
+                let mut chunks = Vec::new();
+                if g.layer.is_some() && g.stamps.len() > CHUNK {
+                    let mut order: Vec<usize> = (0..g.stamps.len()).collect();
+                    order.sort_by_key(|&i| (g.stamps[i], i));
+                    for part in order.chunks(CHUNK) {
+                        let sub = Mesh {
+                            vertices: g.mesh.vertices.clone(),
+                            triangles: part.iter().map(|&i| g.mesh.triangles[i]).collect(),
+                        };
+                        let stamps = part.iter().map(|&i| g.stamps[i]).collect();
+                        chunks.push(group(&sub, stamps, Vec::new())?);
+                    }
+                }
+                group(&g.mesh, g.stamps.clone(), chunks)
             })
             .collect::<Result<Vec<_>, CollideError>>()?;
         Ok(ParryBackend { head, groups })
@@ -112,42 +138,36 @@ impl ParryBackend {
         let rot = Rotation::from_mat3(&Matrix::from_cols(vector(c[0]), vector(c[1]), vector(c[2])));
         let pose = Pose::from_parts(vector(q.pose.tip), rot);
         let head_aabb = self.head.aabb(&pose);
-        let identity = Pose::identity();
-        for g in &self.groups {
-            if g.min_stamp >= q.cutoff || !g.aabb.intersects(&head_aabb) {
-                continue;
-            }
-            if g.max_stamp < q.cutoff {
-                let crossing = intersection_test(&pose, &self.head, &identity, &g.mesh)
-                    .map(|r| r.intersecting)
-                    .unwrap_or(true);
-                if crossing {
-                    return true;
-                }
-                for r in &g.representatives {
-                    if head_aabb.contains_local_point(*r) && self.head.contains_point(&pose, *r) {
-                        return true;
-                    }
-                }
-            } else {
-                for id in g.mesh.bvh().intersect_aabb(&head_aabb) {
-                    if g.stamps[id as usize] >= q.cutoff {
-                        continue;
-                    }
-                    let tri = g.mesh.triangle(id);
-                    let crossing = intersection_test(&pose, &self.head, &identity, &tri)
-                        .map(|r| r.intersecting)
-                        .unwrap_or(true);
-                    if crossing
-                        || (head_aabb.contains_local_point(tri.a)
-                            && self.head.contains_point(&pose, tri.a))
-                    {
-                        return true;
-                    }
-                }
-            }
+        self.groups.iter().any(|g| self.group_hits(g, &pose, &head_aabb, q.cutoff))
+    }
+
+    fn group_hits(&self, g: &Group, pose: &Pose, head_aabb: &Aabb, cutoff: u32) -> bool {
+        if g.min_stamp >= cutoff || !g.aabb.intersects(head_aabb) {
+            return false;
         }
-        false
+        let identity = Pose::identity();
+        if g.max_stamp < cutoff {
+            let crossing = intersection_test(pose, &self.head, &identity, &g.mesh)
+                .map(|r| r.intersecting)
+                .unwrap_or(true);
+            return crossing
+                || g.representatives.iter().any(|r| {
+                    head_aabb.contains_local_point(*r) && self.head.contains_point(pose, *r)
+                });
+        }
+        if !g.chunks.is_empty() {
+            return g.chunks.iter().any(|c| self.group_hits(c, pose, head_aabb, cutoff));
+        }
+        g.mesh.bvh().intersect_aabb(head_aabb).any(|id| {
+            if g.stamps[id as usize] >= cutoff {
+                return false;
+            }
+            let tri = g.mesh.triangle(id);
+            intersection_test(pose, &self.head, &identity, &tri)
+                .map(|r| r.intersecting)
+                .unwrap_or(true)
+                || (head_aabb.contains_local_point(tri.a) && self.head.contains_point(pose, tri.a))
+        })
     }
 }
 
