@@ -115,13 +115,17 @@ pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> i32 {
     let iy = (fy as u32).min(ny - 1);
     let iz = (fz as u32).min(nz - 1);
     let v = grid[((iz * ny + iy) * nx + ix) as usize];
-    let cc = [
-        h.grid_origin[0] + (ix as f32 + 0.5) * h.cell,
-        h.grid_origin[1] + (iy as f32 + 0.5) * h.cell,
-        h.grid_origin[2] + (iz as f32 + 0.5) * h.cell,
+    // Decisive when |v| − |c − centre| − margin > r; squared to skip a sqrt.
+    let slack = v.abs() - h.margin - r;
+    if slack <= 0.0 {
+        return 0;
+    }
+    let d = [
+        c[0] - (h.grid_origin[0] + (ix as f32 + 0.5) * h.cell),
+        c[1] - (h.grid_origin[1] + (iy as f32 + 0.5) * h.cell),
+        c[2] - (h.grid_origin[2] + (iz as f32 + 0.5) * h.cell),
     ];
-    let bound = v.abs() - length(sub(c, cc)) - h.margin;
-    if bound > r {
+    if slack * slack > d[0] * d[0] + d[1] * d[1] + d[2] * d[2] {
         if v < 0.0 {
             -1
         } else {

@@ -3,9 +3,12 @@
 //! and a signed-distance grid that settles most part nodes and triangles
 //! without a single triangle test.
 //!
-//! Grid semantics: each cell stores the signed distance from its centre to
-//! the head surface (negative inside), capped at the band width `W`. For any
-//! point `p` in the cell, `|v| − |p − centre|` is a lower bound on the
+//! Grid semantics: each cell stores a signed lower bound `v` on the distance
+//! from its centre to the head surface (negative inside): exact in a band
+//! of width `W` around the surface (from every nearby triangle), beyond it
+//! `max(W, D − s)` where `D` is the exact distance at the centre of the
+//! enclosing cell of a 4× coarser grid and `s` the distance between the two
+//! centres. For any point `p` in the cell, `|v| − |p − centre|` bounds the
 //! distance from `p` to the surface, so a sphere of radius `r` around `p`
 //! with `|v| − |p − centre| > r + margin` lies wholly on `v`'s side.
 
@@ -194,6 +197,41 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
             grid[k * nx * ny + col] = v;
         }
     }
+
+    // Beyond the band the cap W would stop big part nodes from ever being
+    // culled. Exact distances on a grid COARSE times coarser (brute force,
+    // cheap at that size) lift every capped cell to the valid lower bound
+    // `coarse distance − distance between the two cell centres`.
+    const COARSE: usize = 4;
+    let cdims = [nx, ny, nz].map(|n| n.div_ceil(COARSE));
+    let ccell = cell as f64 * COARSE as f64;
+    let ccentre = |i: usize, k: usize| origin[k] as f64 + (i as f64 + 0.5) * ccell;
+    let coarse: Vec<f64> = (0..cdims[0] * cdims[1] * cdims[2])
+        .into_par_iter()
+        .map(|c| {
+            let (i, j, k) = (c % cdims[0], (c / cdims[0]) % cdims[1], c / (cdims[0] * cdims[1]));
+            let p = [ccentre(i, 0), ccentre(j, 1), ccentre(k, 2)];
+            tris.iter()
+                .map(|t| point_triangle_distance(p, t[0], t[1], t[2]))
+                .fold(f64::INFINITY, f64::min)
+        })
+        .collect();
+    grid.par_iter_mut().enumerate().for_each(|(idx, v)| {
+        let (i, j, k) = (idx % nx, (idx / nx) % ny, idx / (nx * ny));
+        let mut d = v.abs() as f64;
+        if d >= band64 {
+            let (ci, cj, ck) = (i / COARSE, j / COARSE, k / COARSE);
+            let off = [
+                centre(i, 0) - ccentre(ci, 0),
+                centre(j, 1) - ccentre(cj, 1),
+                centre(k, 2) - ccentre(ck, 2),
+            ];
+            let off = (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt();
+            d = (coarse[(ck * cdims[1] + cj) * cdims[0] + ci] - off).max(band64);
+        }
+        let m = d as f32;
+        *v = if *v < 0.0 { -m } else { m };
+    });
     grid
 }
 
