@@ -25,8 +25,7 @@ impl<'a> BruteBackend<'a> {
         let tol = self.scene.tol;
         let pose = &q.pose;
         self.scene
-            .part
-            .triangles
+            .part_tris
             .iter()
             .filter(|t| t.stamp < q.cutoff)
             .any(|t| {

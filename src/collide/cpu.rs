@@ -18,7 +18,7 @@ use crate::geometry::aabb::{point_box_distance, triangle_box_overlap};
 use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::tri_tri_overlap;
 use crate::geometry::{length, sub, V3};
-use crate::scene::{GpuHeadParams, GpuNode, GpuQuery, GpuTriangle, Scene};
+use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
 
 /// Traversal stack depth; scene building rejects deeper BVHs.
@@ -27,8 +27,8 @@ pub const STACK_SIZE: usize = 64;
 /// Borrowed views of the scene arrays, exactly what the shader binds.
 #[derive(Clone, Copy)]
 pub struct SceneView<'a> {
-    /// Part BVH nodes.
-    pub nodes: &'a [GpuNode],
+    /// Part BVH nodes (spheres).
+    pub nodes: &'a [GpuPartNode],
     /// Part triangles.
     pub tris: &'a [GpuTriangle],
     /// Head scalars.
@@ -47,8 +47,8 @@ impl<'a> SceneView<'a> {
     /// View of a built scene.
     pub fn new(scene: &'a Scene) -> Self {
         SceneView {
-            nodes: &scene.part.nodes,
-            tris: &scene.part.triangles,
+            nodes: &scene.part_nodes,
+            tris: &scene.part_tris,
             head: &scene.head.params,
             head_nodes: &scene.head.nodes,
             head_tris: &scene.head.triangles,
@@ -146,17 +146,7 @@ pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
         if node.min_stamp >= q.cutoff {
             continue;
         }
-        let c = [
-            (node.min[0] + node.max[0]) * 0.5,
-            (node.min[1] + node.max[1]) * 0.5,
-            (node.min[2] + node.max[2]) * 0.5,
-        ];
-        let r = length([
-            (node.max[0] - node.min[0]) * 0.5,
-            (node.max[1] - node.min[1]) * 0.5,
-            (node.max[2] - node.min[2]) * 0.5,
-        ]);
-        let cls = classify(s.head, s.grid, to_head(q, c), r);
+        let cls = classify(s.head, s.grid, to_head(q, node.center), node.radius);
         if cls > 0 {
             continue;
         }

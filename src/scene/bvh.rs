@@ -2,7 +2,7 @@
 //! re-lays it out as [`GpuNode`]s whose `min_stamp` lets a query skip every
 //! subtree printed after its cutoff.
 
-use super::gpu_types::{GpuNode, GpuTriangle, MAX_LEAF_TRIS, MAX_TRIS};
+use super::gpu_types::{GpuNode, GpuPartNode, GpuTriangle, MAX_LEAF_TRIS, MAX_TRIS};
 use super::SceneError;
 use crate::collide::cpu::STACK_SIZE;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
@@ -35,7 +35,7 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
             v2: t.v2.into(),
         })
         .collect();
-    let mut params = BvhBuildParams::fast_build();
+    let mut params = BvhBuildParams::medium_build();
     params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
     let bvh = build_bvh2_from_tris(&obv, params, &mut Duration::default());
 
@@ -106,4 +106,60 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
         )));
     }
     Ok(StampedBvh { nodes, triangles })
+}
+
+/// The same tree as bounding spheres: centre = box centre, radius = the
+/// farthest vertex below, computed in `f64` and rounded up so the sphere
+/// always contains every triangle.
+pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
+    let nodes = &bvh.nodes;
+    let mut out: Vec<GpuPartNode> = nodes
+        .iter()
+        .map(|n| GpuPartNode {
+            center: [
+                (n.min[0] + n.max[0]) * 0.5,
+                (n.min[1] + n.max[1]) * 0.5,
+                (n.min[2] + n.max[2]) * 0.5,
+            ],
+            packed: n.packed,
+            radius: 0.0,
+            min_stamp: n.min_stamp,
+            _pad: [0; 2],
+        })
+        .collect();
+    // Each node's radius over its subtree's vertices, via a descent from
+    // every node (depth is bounded by the stack check in `build`).
+    let radii: Vec<f32> = {
+        use rayon::prelude::*;
+        (0..nodes.len())
+            .into_par_iter()
+            .map(|i| {
+                let c = out[i].center.map(|x| x as f64);
+                let mut r2: f64 = 0.0;
+                let mut stack = vec![i];
+                while let Some(j) = stack.pop() {
+                    match nodes[j].leaf_range() {
+                        Some((first, count)) => {
+                            for t in &bvh.triangles[first as usize..(first + count) as usize] {
+                                for v in [t.v0, t.v1, t.v2] {
+                                    let d: f64 = (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum();
+                                    r2 = r2.max(d);
+                                }
+                            }
+                        }
+                        None => {
+                            let l = nodes[j].packed as usize;
+                            stack.extend([l, l + 1]);
+                        }
+                    }
+                }
+                let r = r2.sqrt() as f32;
+                r.next_up()
+            })
+            .collect()
+    };
+    for (n, r) in out.iter_mut().zip(radii) {
+        n.radius = r;
+    }
+    out
 }

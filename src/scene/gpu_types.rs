@@ -38,6 +38,37 @@ pub struct GpuNode {
     pub min_stamp: u32,
 }
 
+/// One node of the part BVH as a bounding sphere, 32 bytes: the sphere's
+/// centre is the node box's centre, its radius the farthest vertex below
+/// (tighter than the half-diagonal). Children and leaves are packed as in
+/// [`GpuNode`].
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPartNode {
+    /// Sphere centre.
+    pub center: [f32; 3],
+    /// Child index, or the packed leaf range.
+    pub packed: u32,
+    /// Sphere radius (rounded up).
+    pub radius: f32,
+    /// Smallest stamp below this node.
+    pub min_stamp: u32,
+    /// Padding.
+    pub _pad: [u32; 2],
+}
+
+impl GpuPartNode {
+    /// `Some((first, count))` for a leaf.
+    #[inline(always)]
+    pub fn leaf_range(&self) -> Option<(u32, u32)> {
+        GpuNode {
+            packed: self.packed,
+            ..GpuNode::default()
+        }
+        .leaf_range()
+    }
+}
+
 /// Leaf flag in [`GpuNode::packed`].
 pub const LEAF_BIT: u32 = 0x8000_0000;
 /// Largest triangle count one leaf can hold.
@@ -107,5 +138,6 @@ pub struct GpuHeadParams {
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
+const _: () = assert!(std::mem::size_of::<GpuPartNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuQuery>() == 64);
 const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 112);

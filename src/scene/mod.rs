@@ -9,12 +9,11 @@ pub mod gpu_types;
 pub mod head;
 mod stamp;
 
-pub use gpu_types::{GpuHeadParams, GpuNode, GpuQuery, GpuTriangle};
+pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
 pub use head::{Head, HeadConfig};
 
 use crate::geometry::{Aabb, Mesh, Pose};
 use crate::toolpath::Toolpath;
-use bvh::StampedBvh;
 
 /// What can go wrong building a scene.
 #[derive(Debug, thiserror::Error)]
@@ -70,8 +69,10 @@ impl PartGroup {
 /// Everything the evaluators need, built once per job.
 #[derive(Clone, Debug)]
 pub struct Scene {
-    /// Platform + part triangles under one BVH, GPU-ready.
-    pub part: StampedBvh,
+    /// Part BVH (platform + layers) as bounding spheres, GPU-ready.
+    pub part_nodes: Vec<GpuPartNode>,
+    /// Part triangles in BVH leaf order.
+    pub part_tris: Vec<GpuTriangle>,
     /// The head.
     pub head: Head,
     /// Contact tolerance (mm), scaled to the scene.
@@ -189,6 +190,8 @@ impl Scene {
             }
         }
         let part = bvh::build(&soup, 4)?;
+        let part_nodes = bvh::sphere_nodes(&part);
+        let part_tris = part.triangles;
 
         let mut waypoint_queries = Vec::with_capacity(toolpath.waypoint_count());
         let mut waypoint_layers = Vec::with_capacity(toolpath.waypoint_count());
@@ -200,7 +203,8 @@ impl Scene {
             waypoint_layers.push(k as u32);
         }
         Ok(Scene {
-            part,
+            part_nodes,
+            part_tris,
             head,
             tol,
             groups,
@@ -211,6 +215,6 @@ impl Scene {
 
     /// Number of part + platform triangles.
     pub fn triangle_count(&self) -> usize {
-        self.part.triangles.len()
+        self.part_tris.len()
     }
 }
