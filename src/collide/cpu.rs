@@ -16,7 +16,7 @@
 use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::aabb::{point_box_distance, triangle_box_overlap};
 use crate::geometry::point_in_mesh::ray_crosses;
-use crate::geometry::tri_tri::tri_tri_overlap;
+use crate::geometry::tri_tri::TriPlane;
 use crate::geometry::{length, sub, V3};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
@@ -102,9 +102,11 @@ pub fn to_head(q: &GpuQuery, p: V3) -> V3 {
 /// 1 = wholly outside, -1 = wholly inside, 0 = cannot tell.
 #[inline(always)]
 pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> i32 {
-    let fx = (c[0] - h.grid_origin[0]) / h.cell;
-    let fy = (c[1] - h.grid_origin[1]) / h.cell;
-    let fz = (c[2] - h.grid_origin[2]) / h.cell;
+    // Any cell gives a valid bound (it is measured from that cell's centre),
+    // so the index needs no exact division.
+    let fx = (c[0] - h.grid_origin[0]) * h.inv_cell;
+    let fy = (c[1] - h.grid_origin[1]) * h.inv_cell;
+    let fz = (c[2] - h.grid_origin[2]) * h.inv_cell;
     let [nx, ny, nz] = h.grid_dims;
     if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
     {
@@ -203,6 +205,7 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
 #[inline(always)]
 pub fn tri_crosses_head(s: &SceneView, a: V3, b: V3, c: V3) -> bool {
     let tol = s.head.tol;
+    let plane = TriPlane::new(a, b, c, tol);
     let mut stack = [0u32; STACK_SIZE];
     let mut sp = 1usize;
     while sp > 0 {
@@ -215,7 +218,7 @@ pub fn tri_crosses_head(s: &SceneView, a: V3, b: V3, c: V3) -> bool {
             Some((first, count)) => {
                 for t in first..first + count {
                     let h = &s.head_tris[t as usize];
-                    if tri_tri_overlap(a, b, c, h.v0, h.v1, h.v2, tol) {
+                    if plane.overlaps(a, b, c, h.v0, h.v1, h.v2, tol) {
                         return true;
                     }
                 }

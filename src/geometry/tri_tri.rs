@@ -15,23 +15,72 @@ use super::{cross, dot, length, sub, V3};
 /// (within `tol` mm of each other's planes). Degenerate (zero-area)
 /// triangles never overlap: loaders drop them.
 pub fn tri_tri_overlap(v0: V3, v1: V3, v2: V3, u0: V3, u1: V3, u2: V3, tol: f32) -> bool {
-    // Plane of V: n1 . x + d1 = 0.
-    let n1 = cross(sub(v1, v0), sub(v2, v0));
-    let l1 = length(n1);
-    if l1 == 0.0 {
-        return false;
-    }
-    let d1 = -dot(n1, v0);
-    let t1 = tol * l1;
-    let du0 = snap(dot(n1, u0) + d1, t1);
-    let du1 = snap(dot(n1, u1) + d1, t1);
-    let du2 = snap(dot(n1, u2) + d1, t1);
-    let du0du1 = du0 * du1;
-    let du0du2 = du0 * du2;
-    if du0du1 > 0.0 && du0du2 > 0.0 {
-        return false; // U strictly on one side of V's plane.
+    TriPlane::new(v0, v1, v2, tol).overlaps(v0, v1, v2, u0, u1, u2, tol)
+}
+
+/// The plane of a triangle `V` with its snapping threshold, computed once
+/// when `V` is tested against many triangles.
+#[derive(Clone, Copy, Debug)]
+pub struct TriPlane {
+    /// Unnormalised normal `(v1 − v0) × (v2 − v0)`.
+    pub n: V3,
+    /// Offset: `n · x + d = 0` on the plane.
+    pub d: f32,
+    /// `tol · |n|`: distances (scaled by `|n|`) below it snap to 0.
+    pub t: f32,
+}
+
+impl TriPlane {
+    /// The plane of `(v0, v1, v2)`.
+    #[inline(always)]
+    pub fn new(v0: V3, v1: V3, v2: V3, tol: f32) -> TriPlane {
+        let n = cross(sub(v1, v0), sub(v2, v0));
+        TriPlane {
+            n,
+            d: -dot(n, v0),
+            t: tol * length(n),
+        }
     }
 
+    /// Möller's test of `V = (v0, v1, v2)` (this plane's triangle) against
+    /// `U = (u0, u1, u2)`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    pub fn overlaps(&self, v0: V3, v1: V3, v2: V3, u0: V3, u1: V3, u2: V3, tol: f32) -> bool {
+        let (n1, d1, t1) = (self.n, self.d, self.t);
+        if t1 == 0.0 {
+            return false;
+        }
+        let du0 = snap(dot(n1, u0) + d1, t1);
+        let du1 = snap(dot(n1, u1) + d1, t1);
+        let du2 = snap(dot(n1, u2) + d1, t1);
+        let du0du1 = du0 * du1;
+        let du0du2 = du0 * du2;
+        if du0du1 > 0.0 && du0du2 > 0.0 {
+            return false; // U strictly on one side of V's plane.
+        }
+        overlap_rest(n1, v0, v1, v2, u0, u1, u2, du0, du1, du2, tol)
+    }
+}
+
+/// The rest of Möller's test once `U` straddles `V`'s plane.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn overlap_rest(
+    n1: V3,
+    v0: V3,
+    v1: V3,
+    v2: V3,
+    u0: V3,
+    u1: V3,
+    u2: V3,
+    du0: f32,
+    du1: f32,
+    du2: f32,
+    tol: f32,
+) -> bool {
+    let du0du1 = du0 * du1;
+    let du0du2 = du0 * du2;
     // Plane of U.
     let n2 = cross(sub(u1, u0), sub(u2, u0));
     let l2 = length(n2);

@@ -107,7 +107,7 @@ pub struct GpuQuery {
     pub _pad: [u32; 3],
 }
 
-/// The head's scalar parameters, 112 bytes.
+/// The head's scalar parameters, 128 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuHeadParams {
@@ -134,10 +134,14 @@ pub struct GpuHeadParams {
     pub ray_b: [f32; 4],
     /// Ray direction.
     pub ray_d: [f32; 4],
+    /// `1 / cell`.
+    pub inv_cell: f32,
+    /// Padding.
+    pub _pad: [f32; 3],
 }
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuPartNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuQuery>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 112);
+const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 128);
