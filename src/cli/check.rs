@@ -4,6 +4,8 @@
 use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs};
 use anyhow::Result;
 use clap::Args;
+use maamplan::geometry::Pose;
+use maamplan::scene::Query;
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -19,6 +21,10 @@ pub struct CheckArgs {
     /// Also write the results as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Stress test: rotate every nozzle direction by DEG about the x axis
+    /// before checking (as `shared/tools/fcl_check.py --tilt`).
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    tilt: Option<f32>,
 }
 
 /// Run `check`.
@@ -26,7 +32,23 @@ pub fn run(a: CheckArgs) -> Result<()> {
     let loaded = a.scene.load()?;
     let scene = &loaded.scene;
     let backend = a.backend.build(scene)?;
-    let queries = &scene.waypoint_queries;
+    let tilted: Vec<Query>;
+    let queries = match a.tilt {
+        None => &scene.waypoint_queries,
+        Some(deg) => {
+            let (s, c) = deg.to_radians().sin_cos();
+            tilted = scene
+                .waypoint_queries
+                .iter()
+                .map(|q| {
+                    let n = q.pose.axis();
+                    let r = [n[0], c * n[1] - s * n[2], s * n[1] + c * n[2]];
+                    Query { pose: Pose::from_axis(q.pose.tip, r), cutoff: q.cutoff }
+                })
+                .collect();
+            &tilted
+        }
+    };
     let t0 = Instant::now();
     let pb = progress(queries.len() as u64, "checking");
     let verdicts = evaluate_with_progress(backend.as_ref(), queries, &pb)?;

@@ -5,7 +5,7 @@
 
 use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::tri_tri::tri_tri_overlap;
-use crate::geometry::{Mesh, V3};
+use crate::geometry::{Aabb, Mesh, V3};
 use crate::scene::Scene;
 use rayon::prelude::*;
 
@@ -22,6 +22,7 @@ impl<'a> BruteBackend<'a> {
 
     fn hits(&self, q: &Query) -> bool {
         let head = &self.scene.head.mesh;
+        let hb = Aabb::from_points(&head.vertices);
         let tol = self.scene.tol;
         let pose = &q.pose;
         self.scene
@@ -32,6 +33,16 @@ impl<'a> BruteBackend<'a> {
                 let a = pose.to_head(t.v0);
                 let b = pose.to_head(t.v1);
                 let c = pose.to_head(t.v2);
+                // Exact pruning only: a triangle whose box misses the head's
+                // box (grown by the tolerance) can neither cross nor be inside.
+                let tb = Aabb::from_points(&[a, b, c]);
+                let grown = Aabb {
+                    min: hb.min.map(|x| x - 2.0 * tol),
+                    max: hb.max.map(|x| x + 2.0 * tol),
+                };
+                if !tb.overlaps(&grown) {
+                    return false;
+                }
                 (0..head.triangles.len()).any(|i| {
                     let [h0, h1, h2] = head.corners(i);
                     tri_tri_overlap(a, b, c, h0, h1, h2, tol)

@@ -1,0 +1,180 @@
+//! Malformed input: each case gives a one-line error naming the file (and
+//! line), exit code 2, and no output file.
+
+use std::fs;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const OBJ: &str = "v 0 0 0\nv 10 0 0\nv 0 10 0\nv 10 10 0\nf 1 2 3\nf 2 4 3\n";
+const WAYPOINTS: &str = "# px py pz nx ny nz\n1 1 0 0 0 1\n2 1 0 0 0 1\n3 1 0 0 0 1\n";
+
+/// A valid two-layer toolpath folder in a fresh temp dir.
+fn toolpath() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    fs::create_dir_all(dir.path().join("tp/waypoint")).unwrap();
+    fs::create_dir_all(dir.path().join("tp/layer")).unwrap();
+    for k in ["0", "1"] {
+        fs::write(dir.path().join(format!("tp/waypoint/{k}.txt")), WAYPOINTS).unwrap();
+        fs::write(dir.path().join(format!("tp/layer/{k}.obj")), OBJ).unwrap();
+    }
+    dir
+}
+
+/// Run `maamplan check` with `args`; return (exit code, stderr, json written?).
+fn check(dir: &Path, args: &[&str]) -> (i32, String, bool) {
+    let json: PathBuf = dir.join("out.json");
+    let out = Command::new(env!("CARGO_BIN_EXE_maamplan"))
+        .arg("check")
+        .args(args)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    (out.status.code().unwrap_or(-1), stderr, json.exists())
+}
+
+/// Assert a clean user error mentioning every `needle`.
+fn assert_user_error(dir: &Path, args: &[&str], needles: &[&str]) {
+    let (code, stderr, wrote) = check(dir, args);
+    assert_eq!(code, 2, "exit code for {args:?}: stderr {stderr}");
+    assert!(!wrote, "no output file may be written for {args:?}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "one line, got: {stderr}");
+    for n in needles {
+        assert!(stderr.contains(n), "'{n}' not in: {stderr}");
+    }
+}
+
+fn tp_arg(dir: &tempfile::TempDir) -> String {
+    dir.path().join("tp").display().to_string()
+}
+
+#[test]
+fn valid_toolpath_writes_json() {
+    let d = toolpath();
+    let (code, stderr, wrote) = check(d.path(), &[&tp_arg(&d)]);
+    assert_eq!(code, 0, "{stderr}");
+    assert!(wrote);
+    let v: serde_json::Value = serde_json::from_str(&fs::read_to_string(d.path().join("out.json")).unwrap()).unwrap();
+    assert_eq!(v["waypoints"], 6);
+    assert_eq!(v["backend"], "cpu");
+    assert_eq!(v["layers"].as_array().unwrap().len(), 2);
+    assert!(v["seconds"].as_f64().unwrap() >= 0.0);
+    assert!(v["colliding"].as_u64().is_some());
+}
+
+#[test]
+fn nan_field() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/waypoint/1.txt"), "1 1 0 0 0 1\n2 nan 0 0 0 1\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["1.txt:2:", "field 2", "finite"]);
+}
+
+#[test]
+fn non_numeric_field() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/waypoint/0.txt"), "1 1 0 0 0 1\n\n1 1 x 0 0 1\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["0.txt:3:", "'x' is not a number"]);
+}
+
+#[test]
+fn wrong_field_count() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/waypoint/0.txt"), "1 1 0 0 0 1\n1 1 0 0 1\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["0.txt:2:", "expected 6 numbers", "found 5"]);
+}
+
+#[test]
+fn zero_length_normal() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/waypoint/1.txt"), "1 1 0 0 0 0\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["1.txt:1:", "zero-length nozzle direction"]);
+}
+
+#[test]
+fn empty_layer() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/waypoint/1.txt"), "# nothing here\n\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["1.txt", "empty layer"]);
+}
+
+#[test]
+fn face_index_out_of_range() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/layer/1.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["1.obj:5:", "face index 9 is out of range"]);
+}
+
+#[test]
+fn nan_vertex_in_obj() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/layer/0.obj"), "v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["0.obj:2:", "finite"]);
+}
+
+#[test]
+fn waypoint_layer_count_mismatch() {
+    let d = toolpath();
+    fs::write(d.path().join("tp/waypoint/2.txt"), WAYPOINTS).unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d)], &["3 waypoint files but 2 layer files", "waypoint/2.txt"]);
+}
+
+#[test]
+fn missing_toolpath() {
+    let d = toolpath();
+    let missing = d.path().join("nope").display().to_string();
+    assert_user_error(d.path(), &[&missing], &["nope", "no such toolpath"]);
+}
+
+#[test]
+fn unreadable_mesh() {
+    let d = toolpath();
+    let head = d.path().join("head.obj");
+    fs::write(&head, [0xff, 0xfe, 0x00, 0x80]).unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &head.display().to_string()], &["head.obj", "cannot read"]);
+}
+
+#[test]
+fn missing_mesh_and_unknown_format() {
+    let d = toolpath();
+    let missing = d.path().join("head.obj").display().to_string();
+    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &missing], &["head.obj", "no such mesh file"]);
+    let ply = d.path().join("head.ply");
+    fs::write(&ply, "ply\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &ply.display().to_string()], &["head.ply", "unknown mesh format"]);
+}
+
+#[test]
+fn stl_ascii_nan_and_binary_truncated() {
+    let d = toolpath();
+    let stl = d.path().join("plate.stl");
+    fs::write(
+        &stl,
+        "solid p\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 inf\nvertex 0 1 0\nendloop\nendfacet\nendsolid p\n",
+    )
+    .unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d), "--platform", &stl.display().to_string()], &["plate.stl:5:", "finite"]);
+    let bin = d.path().join("bin.stl");
+    let mut bytes = vec![0u8; 80];
+    bytes.extend(10u32.to_le_bytes()); // claims 10 facets, has none
+    fs::write(&bin, bytes).unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d), "--platform", &bin.display().to_string()], &["bin.stl", "invalid STL"]);
+}
+
+#[test]
+fn open_head_is_refused() {
+    let d = toolpath();
+    let head = d.path().join("open.obj");
+    fs::write(&head, "v 0 0 0\nv 1 0 1\nv 0 1 1\nf 1 2 3\n").unwrap();
+    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &head.display().to_string()], &["not closed", "watertight"]);
+}
+
+#[test]
+fn bad_place_argument() {
+    let d = toolpath();
+    let (code, stderr, wrote) = check(d.path(), &[&tp_arg(&d), "--place", "1,2"]);
+    assert_eq!(code, 2);
+    assert!(!wrote);
+    assert!(stderr.contains("X,Y,Z"), "{stderr}");
+}

@@ -1,0 +1,57 @@
+//! The real data set: on simple_curve (data-set head and platform, placed
+//! at z = 40.5 mm as the original software did) the cpu and parry backends
+//! give the same verdict for every waypoint and for tilted poses.
+
+mod common;
+
+use maamplan::collide::cpu::CpuBackend;
+use maamplan::collide::parry::ParryBackend;
+use maamplan::collide::sample::tilted_queries;
+use maamplan::collide::Backend;
+use maamplan::io::mesh::load_mesh;
+use maamplan::io::toolpath::load_toolpath;
+use maamplan::io::Placement;
+use maamplan::scene::{Query, Scene, SceneConfig};
+use std::path::{Path, PathBuf};
+
+fn data() -> PathBuf {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/zhang2021");
+    assert!(d.is_dir(), "the data set must sit at {} (see README)", d.display());
+    d
+}
+
+fn simple_curve() -> Scene {
+    let d = data();
+    let place = Placement { y_up: false, offset: [0.0, 0.0, 40.5] };
+    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
+    assert_eq!(tp.waypoint_count(), 41_494);
+    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
+    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
+    Scene::build(&tp, &head, &platform, &SceneConfig::default()).unwrap()
+}
+
+fn compare(scene: &Scene, queries: &[Query]) -> usize {
+    let cpu = CpuBackend::new(scene).evaluate(queries).unwrap();
+    let parry = ParryBackend::new(scene).unwrap().evaluate(queries).unwrap();
+    let mut near = Vec::new();
+    for (i, (a, b)) in cpu.iter().zip(&parry).enumerate() {
+        if a != b {
+            let d = common::surface_distance(scene, &queries[i]);
+            assert!(d < 1e-3, "query {i}: cpu {a}, parry {b}, surfaces {d} mm apart");
+            near.push((i, d));
+        }
+    }
+    eprintln!("near-contact disagreements: {near:?}");
+    cpu.iter().filter(|&&c| c).count()
+}
+
+#[test]
+fn simple_curve_every_waypoint_and_tilted_poses_agree() {
+    let scene = simple_curve();
+    let own = compare(&scene, &scene.waypoint_queries);
+    // The data set's own orientations are almost all free; a handful touch.
+    assert!(own < 50, "{own} of the data set's own poses collide");
+    let tilted = tilted_queries(&scene.waypoint_queries, 8000, 3);
+    let hits = compare(&scene, &tilted);
+    assert!(hits > 100 && hits < tilted.len() - 100, "{hits} colliding tilted poses");
+}
