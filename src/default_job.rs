@@ -47,7 +47,11 @@ pub fn job() -> Job {
 }
 
 fn on_sphere(r: f32, theta: f32, phi: f32) -> ([f32; 3], [f32; 3]) {
-    let n = [theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos()];
+    let n = [
+        theta.sin() * phi.cos(),
+        theta.sin() * phi.sin(),
+        theta.cos(),
+    ];
     ([n[0] * r, n[1] * r, n[2] * r], n)
 }
 
@@ -76,7 +80,8 @@ fn shell_surface(r: f32) -> Mesh {
     for i in 1..=rings {
         let theta = THETA_MAX * i as f32 / rings as f32;
         for j in 0..seg {
-            m.vertices.push(on_sphere(r, theta, 2.0 * PI * j as f32 / seg as f32).0);
+            m.vertices
+                .push(on_sphere(r, theta, 2.0 * PI * j as f32 / seg as f32).0);
         }
     }
     let at = |i: u32, j: u32| 1 + (i - 1) * seg + (j % seg);
@@ -131,10 +136,23 @@ pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
         })
         .collect();
     let triangles = vec![
-        [0, 2, 1], [1, 2, 3], [4, 5, 6], [5, 7, 6], [0, 1, 4], [1, 5, 4],
-        [2, 6, 3], [3, 6, 7], [0, 4, 2], [2, 4, 6], [1, 3, 5], [3, 7, 5],
+        [0, 2, 1],
+        [1, 2, 3],
+        [4, 5, 6],
+        [5, 7, 6],
+        [0, 1, 4],
+        [1, 5, 4],
+        [2, 6, 3],
+        [3, 6, 7],
+        [0, 4, 2],
+        [2, 4, 6],
+        [1, 3, 5],
+        [3, 7, 5],
     ];
-    Mesh { vertices, triangles }
+    Mesh {
+        vertices,
+        triangles,
+    }
 }
 
 #[cfg(test)]

@@ -14,7 +14,11 @@ fn main() -> ExitCode {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
             // One line: the outermost context, then the cause.
-            let msg = e.chain().map(|c| c.to_string()).collect::<Vec<_>>().join(": ");
+            let msg = e
+                .chain()
+                .map(|c| c.to_string())
+                .collect::<Vec<_>>()
+                .join(": ");
             eprintln!("error: {msg}");
             ExitCode::from(exit_code(&e))
         }
@@ -28,7 +32,11 @@ fn exit_code(e: &anyhow::Error) -> u8 {
             return 2;
         }
         if let Some(s) = cause.downcast_ref::<SceneError>() {
-            return if matches!(s, SceneError::Internal(_)) { 1 } else { 2 };
+            return if matches!(s, SceneError::Internal(_)) {
+                1
+            } else {
+                2
+            };
         }
     }
     1

@@ -56,7 +56,8 @@ fn valid_toolpath_writes_json() {
     let (code, stderr, wrote) = check(d.path(), &[&tp_arg(&d)]);
     assert_eq!(code, 0, "{stderr}");
     assert!(wrote);
-    let v: serde_json::Value = serde_json::from_str(&fs::read_to_string(d.path().join("out.json")).unwrap()).unwrap();
+    let v: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(d.path().join("out.json")).unwrap()).unwrap();
     assert_eq!(v["waypoints"], 6);
     assert_eq!(v["backend"], "cpu");
     assert_eq!(v["layers"].as_array().unwrap().len(), 2);
@@ -67,29 +68,53 @@ fn valid_toolpath_writes_json() {
 #[test]
 fn nan_field() {
     let d = toolpath();
-    fs::write(d.path().join("tp/waypoint/1.txt"), "1 1 0 0 0 1\n2 nan 0 0 0 1\n").unwrap();
+    fs::write(
+        d.path().join("tp/waypoint/1.txt"),
+        "1 1 0 0 0 1\n2 nan 0 0 0 1\n",
+    )
+    .unwrap();
     assert_user_error(d.path(), &[&tp_arg(&d)], &["1.txt:2:", "field 2", "finite"]);
 }
 
 #[test]
 fn non_numeric_field() {
     let d = toolpath();
-    fs::write(d.path().join("tp/waypoint/0.txt"), "1 1 0 0 0 1\n\n1 1 x 0 0 1\n").unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d)], &["0.txt:3:", "'x' is not a number"]);
+    fs::write(
+        d.path().join("tp/waypoint/0.txt"),
+        "1 1 0 0 0 1\n\n1 1 x 0 0 1\n",
+    )
+    .unwrap();
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d)],
+        &["0.txt:3:", "'x' is not a number"],
+    );
 }
 
 #[test]
 fn wrong_field_count() {
     let d = toolpath();
-    fs::write(d.path().join("tp/waypoint/0.txt"), "1 1 0 0 0 1\n1 1 0 0 1\n").unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d)], &["0.txt:2:", "expected 6 numbers", "found 5"]);
+    fs::write(
+        d.path().join("tp/waypoint/0.txt"),
+        "1 1 0 0 0 1\n1 1 0 0 1\n",
+    )
+    .unwrap();
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d)],
+        &["0.txt:2:", "expected 6 numbers", "found 5"],
+    );
 }
 
 #[test]
 fn zero_length_normal() {
     let d = toolpath();
     fs::write(d.path().join("tp/waypoint/1.txt"), "1 1 0 0 0 0\n").unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d)], &["1.txt:1:", "zero-length nozzle direction"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d)],
+        &["1.txt:1:", "zero-length nozzle direction"],
+    );
 }
 
 #[test]
@@ -102,14 +127,26 @@ fn empty_layer() {
 #[test]
 fn face_index_out_of_range() {
     let d = toolpath();
-    fs::write(d.path().join("tp/layer/1.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n").unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d)], &["1.obj:5:", "face index 9 is out of range"]);
+    fs::write(
+        d.path().join("tp/layer/1.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 1 2 9\n",
+    )
+    .unwrap();
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d)],
+        &["1.obj:5:", "face index 9 is out of range"],
+    );
 }
 
 #[test]
 fn nan_vertex_in_obj() {
     let d = toolpath();
-    fs::write(d.path().join("tp/layer/0.obj"), "v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+    fs::write(
+        d.path().join("tp/layer/0.obj"),
+        "v 0 0 0\nv 1 NaN 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
     assert_user_error(d.path(), &[&tp_arg(&d)], &["0.obj:2:", "finite"]);
 }
 
@@ -117,7 +154,11 @@ fn nan_vertex_in_obj() {
 fn waypoint_layer_count_mismatch() {
     let d = toolpath();
     fs::write(d.path().join("tp/waypoint/2.txt"), WAYPOINTS).unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d)], &["3 waypoint files but 2 layer files", "waypoint/2.txt"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d)],
+        &["3 waypoint files but 2 layer files", "waypoint/2.txt"],
+    );
 }
 
 #[test]
@@ -132,17 +173,29 @@ fn unreadable_mesh() {
     let d = toolpath();
     let head = d.path().join("head.obj");
     fs::write(&head, [0xff, 0xfe, 0x00, 0x80]).unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &head.display().to_string()], &["head.obj", "cannot read"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d), "--head", &head.display().to_string()],
+        &["head.obj", "cannot read"],
+    );
 }
 
 #[test]
 fn missing_mesh_and_unknown_format() {
     let d = toolpath();
     let missing = d.path().join("head.obj").display().to_string();
-    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &missing], &["head.obj", "no such mesh file"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d), "--head", &missing],
+        &["head.obj", "no such mesh file"],
+    );
     let ply = d.path().join("head.ply");
     fs::write(&ply, "ply\n").unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &ply.display().to_string()], &["head.ply", "unknown mesh format"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d), "--head", &ply.display().to_string()],
+        &["head.ply", "unknown mesh format"],
+    );
 }
 
 #[test]
@@ -154,12 +207,20 @@ fn stl_ascii_nan_and_binary_truncated() {
         "solid p\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 inf\nvertex 0 1 0\nendloop\nendfacet\nendsolid p\n",
     )
     .unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d), "--platform", &stl.display().to_string()], &["plate.stl:5:", "finite"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d), "--platform", &stl.display().to_string()],
+        &["plate.stl:5:", "finite"],
+    );
     let bin = d.path().join("bin.stl");
     let mut bytes = vec![0u8; 80];
     bytes.extend(10u32.to_le_bytes()); // claims 10 facets, has none
     fs::write(&bin, bytes).unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d), "--platform", &bin.display().to_string()], &["bin.stl", "invalid STL"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d), "--platform", &bin.display().to_string()],
+        &["bin.stl", "invalid STL"],
+    );
 }
 
 #[test]
@@ -167,7 +228,11 @@ fn open_head_is_refused() {
     let d = toolpath();
     let head = d.path().join("open.obj");
     fs::write(&head, "v 0 0 0\nv 1 0 1\nv 0 1 1\nf 1 2 3\n").unwrap();
-    assert_user_error(d.path(), &[&tp_arg(&d), "--head", &head.display().to_string()], &["not closed", "watertight"]);
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d), "--head", &head.display().to_string()],
+        &["not closed", "watertight"],
+    );
 }
 
 #[test]

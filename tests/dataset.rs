@@ -16,13 +16,20 @@ use std::path::{Path, PathBuf};
 
 fn data() -> PathBuf {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/zhang2021");
-    assert!(d.is_dir(), "the data set must sit at {} (see README)", d.display());
+    assert!(
+        d.is_dir(),
+        "the data set must sit at {} (see README)",
+        d.display()
+    );
     d
 }
 
 fn simple_curve() -> Scene {
     let d = data();
-    let place = Placement { y_up: false, offset: [0.0, 0.0, 40.5] };
+    let place = Placement {
+        y_up: false,
+        offset: [0.0, 0.0, 40.5],
+    };
     let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
     assert_eq!(tp.waypoint_count(), 41_494);
     let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
@@ -37,7 +44,10 @@ fn compare(scene: &Scene, queries: &[Query]) -> usize {
     for (i, (a, b)) in cpu.iter().zip(&parry).enumerate() {
         if a != b {
             let d = common::surface_distance(scene, &queries[i]);
-            assert!(d < 1e-3, "query {i}: cpu {a}, parry {b}, surfaces {d} mm apart");
+            assert!(
+                d < 1e-3,
+                "query {i}: cpu {a}, parry {b}, surfaces {d} mm apart"
+            );
             near.push((i, d));
         }
     }
@@ -53,5 +63,8 @@ fn simple_curve_every_waypoint_and_tilted_poses_agree() {
     assert!(own < 50, "{own} of the data set's own poses collide");
     let tilted = tilted_queries(&scene.waypoint_queries, 8000, 3);
     let hits = compare(&scene, &tilted);
-    assert!(hits > 100 && hits < tilted.len() - 100, "{hits} colliding tilted poses");
+    assert!(
+        hits > 100 && hits < tilted.len() - 100,
+        "{hits} colliding tilted poses"
+    );
 }

@@ -15,14 +15,22 @@ use maamplan::scene::{HeadConfig, Query, Scene, SceneConfig};
 
 fn cfg(clearance: f32) -> SceneConfig {
     SceneConfig {
-        head: HeadConfig { tip_clearance: clearance, grid_resolution: 48 },
+        head: HeadConfig {
+            tip_clearance: clearance,
+            grid_resolution: 48,
+        },
         max_edge: None,
     }
 }
 
 /// Compare `backends` against brute force; panic on any disagreement that
 /// is not a near-contact. Returns (colliding, free) counts.
-fn agree(scene: &Scene, queries: &[Query], backends: &[&dyn Backend], what: &str) -> (usize, usize) {
+fn agree(
+    scene: &Scene,
+    queries: &[Query],
+    backends: &[&dyn Backend],
+    what: &str,
+) -> (usize, usize) {
     let truth = BruteBackend::new(scene).evaluate(queries).unwrap();
     for b in backends {
         let got = b.evaluate(queries).unwrap();
@@ -40,9 +48,16 @@ fn agree(scene: &Scene, queries: &[Query], backends: &[&dyn Backend], what: &str
             }
         }
         if !listed.is_empty() {
-            eprintln!("{what}: {} near-contact disagreements with brute force: {listed:?}", b.name());
+            eprintln!(
+                "{what}: {} near-contact disagreements with brute force: {listed:?}",
+                b.name()
+            );
         }
-        assert!(listed.len() * 100 <= queries.len(), "{what}: too many near-contacts for {}", b.name());
+        assert!(
+            listed.len() * 100 <= queries.len(),
+            "{what}: too many near-contacts for {}",
+            b.name()
+        );
     }
     let hits = truth.iter().filter(|&&c| c).count();
     (hits, truth.len() - hits)
@@ -53,7 +68,9 @@ fn random_scenes_asymmetric_head() {
     for seed in 0..8u64 {
         let mut r = rng(seed);
         let tp = random_toolpath(&mut r, 3, 0.7);
-        let radii: Vec<f32> = (0..11).map(|j| 4.0 + 3.0 * ((j * 7 % 11) as f32 / 11.0)).collect();
+        let radii: Vec<f32> = (0..11)
+            .map(|j| 4.0 + 3.0 * ((j * 7 % 11) as f32 / 11.0))
+            .collect();
         let head = star_head(&radii, 6.0, 14.0, [1.5, -0.7]);
         let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
         let scene = Scene::build(&tp, &head, &platform, &cfg(0.2)).unwrap();
@@ -62,7 +79,10 @@ fn random_scenes_asymmetric_head() {
         let parry = ParryBackend::new(&scene).unwrap();
         let (hit, free) = agree(&scene, &queries, &[&cpu, &parry], &format!("seed {seed}"));
         eprintln!("seed {seed}: {hit} colliding, {free} free");
-        assert!(hit > 20 && free > 20, "seed {seed}: want both verdicts, got {hit} colliding / {free} free");
+        assert!(
+            hit > 20 && free > 20,
+            "seed {seed}: want both verdicts, got {hit} colliding / {free} free"
+        );
     }
 }
 
@@ -77,7 +97,10 @@ fn fully_contained_triangles_collide() {
     let tp = maamplan::toolpath::Toolpath {
         layers: vec![maamplan::toolpath::Layer {
             name: "0".into(),
-            waypoints: vec![maamplan::toolpath::Waypoint { pos: [0.0, 0.0, 30.0], dir: [0.0, 0.0, 1.0] }],
+            waypoints: vec![maamplan::toolpath::Waypoint {
+                pos: [0.0, 0.0, 30.0],
+                dir: [0.0, 0.0, 1.0],
+            }],
             surface: Some(tri),
         }],
     };
@@ -85,9 +108,18 @@ fn fully_contained_triangles_collide() {
     let platform = box_mesh([-50.0, -50.0, -2.0], [50.0, 50.0, 0.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(0.3)).unwrap();
     // The triangle has stamp 1: cutoff 2 sees it.
-    let inside = Query { pose: pose([0.0, 0.0, 20.0], [0.0, 0.0, 1.0]), cutoff: 2 };
-    let above = Query { pose: pose([0.0, 0.0, 32.0], [0.0, 0.0, 1.0]), cutoff: 2 };
-    let not_yet = Query { cutoff: 1, ..inside };
+    let inside = Query {
+        pose: pose([0.0, 0.0, 20.0], [0.0, 0.0, 1.0]),
+        cutoff: 2,
+    };
+    let above = Query {
+        pose: pose([0.0, 0.0, 32.0], [0.0, 0.0, 1.0]),
+        cutoff: 2,
+    };
+    let not_yet = Query {
+        cutoff: 1,
+        ..inside
+    };
     let queries = [inside, above, not_yet];
     let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();
     assert_eq!(truth, vec![true, false, false]);
@@ -102,19 +134,30 @@ fn coplanar_and_edge_touching_contacts() {
     // A box head (closed, flat faces) over a flat square part triangle pair.
     let head = box_mesh([-2.0, -2.0, 0.0], [2.0, 2.0, 4.0]);
     let square = Mesh {
-        vertices: vec![[-1.0, -1.0, 5.0], [1.0, -1.0, 5.0], [1.0, 1.0, 5.0], [-1.0, 1.0, 5.0]],
+        vertices: vec![
+            [-1.0, -1.0, 5.0],
+            [1.0, -1.0, 5.0],
+            [1.0, 1.0, 5.0],
+            [-1.0, 1.0, 5.0],
+        ],
         triangles: vec![[0, 1, 2], [0, 2, 3]],
     };
     let tp = maamplan::toolpath::Toolpath {
         layers: vec![maamplan::toolpath::Layer {
             name: "0".into(),
-            waypoints: vec![maamplan::toolpath::Waypoint { pos: [0.0, 0.0, 5.0], dir: [0.0, 0.0, 1.0] }],
+            waypoints: vec![maamplan::toolpath::Waypoint {
+                pos: [0.0, 0.0, 5.0],
+                dir: [0.0, 0.0, 1.0],
+            }],
             surface: Some(square),
         }],
     };
     let platform = box_mesh([-50.0, -50.0, -2.0], [50.0, 50.0, -1.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(0.0)).unwrap();
-    let at = |tip: [f32; 3], axis: [f32; 3]| Query { pose: pose(tip, axis), cutoff: 2 };
+    let at = |tip: [f32; 3], axis: [f32; 3]| Query {
+        pose: pose(tip, axis),
+        cutoff: 2,
+    };
     let queries = [
         // Head's top face exactly on the square's plane, overlapping: coplanar contact.
         at([0.0, 0.0, 1.0], [0.0, 0.0, 1.0]),
@@ -132,7 +175,10 @@ fn coplanar_and_edge_touching_contacts() {
     let cpu = CpuBackend::new(&scene);
     assert_eq!(cpu.evaluate(&queries).unwrap(), truth);
     // parry may call the exact touches either way; they are near-contacts.
-    let parry = ParryBackend::new(&scene).unwrap().evaluate(&queries).unwrap();
+    let parry = ParryBackend::new(&scene)
+        .unwrap()
+        .evaluate(&queries)
+        .unwrap();
     for i in [2, 3, 4] {
         assert_eq!(parry[i], truth[i], "query {i}");
     }
@@ -144,10 +190,17 @@ fn stamps_cut_a_layer_in_half() {
     // half sees it only once the cutoff passes the waypoints there.
     let surface = height_patch([-10.0, 10.0], [-2.0, 2.0], 20, |_, _| 1.0);
     let waypoints: Vec<_> = (0..21)
-        .map(|i| maamplan::toolpath::Waypoint { pos: [-10.0 + i as f32, 0.0, 1.0], dir: [0.0, 0.0, 1.0] })
+        .map(|i| maamplan::toolpath::Waypoint {
+            pos: [-10.0 + i as f32, 0.0, 1.0],
+            dir: [0.0, 0.0, 1.0],
+        })
         .collect();
     let tp = maamplan::toolpath::Toolpath {
-        layers: vec![maamplan::toolpath::Layer { name: "0".into(), waypoints, surface: Some(surface) }],
+        layers: vec![maamplan::toolpath::Layer {
+            name: "0".into(),
+            waypoints,
+            surface: Some(surface),
+        }],
     };
     let head = cone_head(3.0, 3.0, 6.0, 16);
     let platform = box_mesh([-50.0, -50.0, -2.0], [50.0, 50.0, 0.0]);
@@ -156,9 +209,19 @@ fn stamps_cut_a_layer_in_half() {
     let p = pose([5.0, 0.0, 0.5], [0.0, 0.0, 1.0]);
     let queries: Vec<Query> = (1..=22).map(|cutoff| Query { pose: p, cutoff }).collect();
     let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();
-    let first_hit = truth.iter().position(|&c| c).expect("collides once printed");
-    assert!(truth[first_hit..].iter().all(|&c| c), "monotone in the cutoff");
-    assert!((10..=16).contains(&first_hit), "first colliding cutoff {}", first_hit + 1);
+    let first_hit = truth
+        .iter()
+        .position(|&c| c)
+        .expect("collides once printed");
+    assert!(
+        truth[first_hit..].iter().all(|&c| c),
+        "monotone in the cutoff"
+    );
+    assert!(
+        (10..=16).contains(&first_hit),
+        "first colliding cutoff {}",
+        first_hit + 1
+    );
     let cpu = CpuBackend::new(&scene);
     let parry = ParryBackend::new(&scene).unwrap();
     assert_eq!(cpu.evaluate(&queries).unwrap(), truth);

@@ -43,7 +43,10 @@ pub fn run(a: CheckArgs) -> Result<()> {
                 .map(|q| {
                     let n = q.pose.axis();
                     let r = [n[0], c * n[1] - s * n[2], s * n[1] + c * n[2]];
-                    Query { pose: Pose::from_axis(q.pose.tip, r), cutoff: q.cutoff }
+                    Query {
+                        pose: Pose::from_axis(q.pose.tip, r),
+                        cutoff: q.cutoff,
+                    }
                 })
                 .collect();
             &tilted

@@ -94,7 +94,9 @@ fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
         .map_err(|_| format!("'{s}' is not X,Y,Z (three numbers separated by commas)"))?;
     match v[..] {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([x, y, z]),
-        _ => Err(format!("'{s}' is not X,Y,Z (three finite numbers separated by commas)")),
+        _ => Err(format!(
+            "'{s}' is not X,Y,Z (three finite numbers separated by commas)"
+        )),
     }
 }
 
@@ -143,7 +145,12 @@ impl SceneArgs {
                         })
                         .collect(),
                 };
-                ("embedded default".to_string(), tp, Some(job.head), Some(job.platform))
+                (
+                    "embedded default".to_string(),
+                    tp,
+                    Some(job.head),
+                    Some(job.platform),
+                )
             }
         };
         let head = match &self.head {
@@ -164,7 +171,9 @@ impl SceneArgs {
         let scene = Scene::build(&toolpath, &head, &platform, &cfg).with_context(|| {
             format!(
                 "building the scene (head {})",
-                self.head.as_ref().map_or("default".into(), |p| p.display().to_string())
+                self.head
+                    .as_ref()
+                    .map_or("default".into(), |p| p.display().to_string())
             )
         })?;
         Ok(Loaded {
@@ -204,9 +213,11 @@ pub fn run(cli: Cli) -> Result<()> {
 pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
     let pb = indicatif::ProgressBar::new(len);
     pb.set_style(
-        indicatif::ProgressStyle::with_template("{msg:>10} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})")
-            .expect("static template")
-            .progress_chars("=> "),
+        indicatif::ProgressStyle::with_template(
+            "{msg:>10} [{bar:40}] {pos}/{len} ({per_sec}, eta {eta})",
+        )
+        .expect("static template")
+        .progress_chars("=> "),
     );
     pb.set_message(what.to_string());
     pb
@@ -231,7 +242,11 @@ pub fn evaluate_with_progress(
 pub fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<()> {
     let mut text = serde_json::to_string_pretty(value)?;
     text.push('\n');
-    maamplan::io::output::write_atomic(path, text.as_bytes())
-        .map_err(|e| UsageError(format!("{}: cannot write ({e}): check the folder exists and is writable", path.display())))?;
+    maamplan::io::output::write_atomic(path, text.as_bytes()).map_err(|e| {
+        UsageError(format!(
+            "{}: cannot write ({e}): check the folder exists and is writable",
+            path.display()
+        ))
+    })?;
     Ok(())
 }

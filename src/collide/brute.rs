@@ -69,13 +69,9 @@ pub fn winding_number(mesh: &Mesh, p: V3) -> f64 {
     let p = p.map(|c| c as f64);
     let mut total = 0.0;
     for i in 0..mesh.triangles.len() {
-        let [a, b, c] = mesh.corners(i).map(|v| {
-            [
-                v[0] as f64 - p[0],
-                v[1] as f64 - p[1],
-                v[2] as f64 - p[2],
-            ]
-        });
+        let [a, b, c] = mesh
+            .corners(i)
+            .map(|v| [v[0] as f64 - p[0], v[1] as f64 - p[1], v[2] as f64 - p[2]]);
         let la = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
         let lb = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
         let lc = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();

@@ -90,7 +90,11 @@ impl Backend for CpuBackend<'_> {
 /// Part frame → head frame: `Rᵀ (p − tip)`.
 #[inline(always)]
 pub fn to_head(q: &GpuQuery, p: V3) -> V3 {
-    let d = [p[0] - q.rows[0][3], p[1] - q.rows[1][3], p[2] - q.rows[2][3]];
+    let d = [
+        p[0] - q.rows[0][3],
+        p[1] - q.rows[1][3],
+        p[2] - q.rows[2][3],
+    ];
     [
         q.rows[0][0] * d[0] + q.rows[0][1] * d[1] + q.rows[0][2] * d[2],
         q.rows[1][0] * d[0] + q.rows[1][1] * d[1] + q.rows[1][2] * d[2],
@@ -185,7 +189,9 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
         (a[1] + b[1] + c[1]) / 3.0,
         (a[2] + b[2] + c[2]) / 3.0,
     ];
-    let r = length(sub(a, m)).max(length(sub(b, m))).max(length(sub(c, m)));
+    let r = length(sub(a, m))
+        .max(length(sub(b, m)))
+        .max(length(sub(c, m)));
     let cls = classify(s.head, s.grid, m, r);
     if cls != 0 {
         return cls < 0;

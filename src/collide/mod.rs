@@ -34,7 +34,11 @@ pub trait Backend: Sync {
 pub fn check_finite(queries: &[Query]) -> Result<(), CollideError> {
     for (i, q) in queries.iter().enumerate() {
         let p = &q.pose;
-        let finite = p.tip.iter().chain(p.cols.iter().flatten()).all(|c| c.is_finite());
+        let finite = p
+            .tip
+            .iter()
+            .chain(p.cols.iter().flatten())
+            .all(|c| c.is_finite());
         if !finite {
             return Err(CollideError::NonFinite(i));
         }

@@ -138,7 +138,9 @@ impl ParryBackend {
         let rot = Rotation::from_mat3(&Matrix::from_cols(vector(c[0]), vector(c[1]), vector(c[2])));
         let pose = Pose::from_parts(vector(q.pose.tip), rot);
         let head_aabb = self.head.aabb(&pose);
-        self.groups.iter().any(|g| self.group_hits(g, &pose, &head_aabb, q.cutoff))
+        self.groups
+            .iter()
+            .any(|g| self.group_hits(g, &pose, &head_aabb, q.cutoff))
     }
 
     fn group_hits(&self, g: &Group, pose: &Pose, head_aabb: &Aabb, cutoff: u32) -> bool {
@@ -156,7 +158,10 @@ impl ParryBackend {
                 });
         }
         if !g.chunks.is_empty() {
-            return g.chunks.iter().any(|c| self.group_hits(c, pose, head_aabb, cutoff));
+            return g
+                .chunks
+                .iter()
+                .any(|c| self.group_hits(c, pose, head_aabb, cutoff));
         }
         g.mesh.bvh().intersect_aabb(head_aabb).any(|id| {
             if g.stamps[id as usize] >= cutoff {

@@ -83,7 +83,11 @@ impl Pose {
     pub fn tilted(&self, tilt: f64, azimuth: f64) -> Pose {
         let n = normalize64(to64(self.axis()));
         // Any unit vector orthogonal to n, then a second one.
-        let helper = if n[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+        let helper = if n[0].abs() < 0.9 {
+            [1.0, 0.0, 0.0]
+        } else {
+            [0.0, 1.0, 0.0]
+        };
         let u = normalize64(cross64(n, helper));
         let v = cross64(n, u);
         let (st, ct) = tilt.sin_cos();
@@ -124,9 +128,14 @@ mod tests {
 
     #[test]
     fn axis_maps_z_to_normal_and_round_trips() {
-        for n in [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [1.0, 2.0, 3.0], [0.3, -0.9, 0.1]] {
+        for n in [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 2.0, 3.0],
+            [0.3, -0.9, 0.1],
+        ] {
             let p = Pose::from_axis([1.0, 2.0, 3.0], n);
-            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2] as f32).sqrt();
+            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             assert!(close(p.axis(), [n[0] / l, n[1] / l, n[2] / l]));
             let h = [0.3, -0.2, 5.0];
             assert!(close(p.to_head(p.to_part(h)), h));

@@ -285,7 +285,12 @@ mod tests {
         let crossing = ([1.0, -1.0, 0.0], [1.0, 3.0, 0.0], [3.0, 1.0, 0.0]);
         let apart = ([3.0, 3.0, 0.0], [4.0, 3.0, 0.0], [3.0, 4.0, 0.0]);
         let edge_touch = ([2.0, 0.0, 0.0], [3.0, 0.0, 0.0], [2.0, 1.0, 0.0]);
-        for (t, want) in [(inside, true), (crossing, true), (apart, false), (edge_touch, true)] {
+        for (t, want) in [
+            (inside, true),
+            (crossing, true),
+            (apart, false),
+            (edge_touch, true),
+        ] {
             assert_eq!(tri_tri_overlap(a.0, a.1, a.2, t.0, t.1, t.2, T), want);
             assert_eq!(tri_tri_overlap(t.0, t.1, t.2, a.0, a.1, a.2, T), want);
         }

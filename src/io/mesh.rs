@@ -28,7 +28,10 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, InputError> {
         }
     };
     if mesh.triangles.is_empty() {
-        return Err(InputError::file(path, "the mesh has no triangles: export it with its faces"));
+        return Err(InputError::file(
+            path,
+            "the mesh has no triangles: export it with its faces",
+        ));
     }
     Ok(mesh)
 }
@@ -43,7 +46,6 @@ fn load_obj(path: &Path) -> Result<Mesh, InputError> {
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
-        ..Default::default()
     };
     let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
         Err(tobj::LoadError::GenericFailure)
@@ -54,8 +56,12 @@ fn load_obj(path: &Path) -> Result<Mesh, InputError> {
         let base = mesh.vertices.len() as u32;
         mesh.vertices
             .extend(m.mesh.positions.chunks_exact(3).map(|c| [c[0], c[1], c[2]]));
-        mesh.triangles
-            .extend(m.mesh.indices.chunks_exact(3).map(|c| [base + c[0], base + c[1], base + c[2]]));
+        mesh.triangles.extend(
+            m.mesh
+                .indices
+                .chunks_exact(3)
+                .map(|c| [base + c[0], base + c[1], base + c[2]]),
+        );
     }
     Ok(mesh)
 }
@@ -75,25 +81,55 @@ fn check_obj(path: &Path, text: &str) -> Result<(), InputError> {
                 seen += 1;
                 let vals: Vec<&str> = it.collect();
                 if vals.len() < 3 {
-                    return Err(InputError::at(path, n, format!("vertex has {} coordinates, needs 3: fix this line", vals.len())));
+                    return Err(InputError::at(
+                        path,
+                        n,
+                        format!(
+                            "vertex has {} coordinates, needs 3: fix this line",
+                            vals.len()
+                        ),
+                    ));
                 }
                 for v in &vals[..3] {
                     match v.parse::<f32>() {
                         Ok(x) if x.is_finite() => {}
-                        Ok(_) => return Err(InputError::at(path, n, format!("vertex coordinate {v}: every coordinate must be a finite number"))),
-                        Err(_) => return Err(InputError::at(path, n, format!("vertex coordinate '{v}' is not a number: fix this line"))),
+                        Ok(_) => return Err(InputError::at(
+                            path,
+                            n,
+                            format!(
+                                "vertex coordinate {v}: every coordinate must be a finite number"
+                            ),
+                        )),
+                        Err(_) => {
+                            return Err(InputError::at(
+                                path,
+                                n,
+                                format!("vertex coordinate '{v}' is not a number: fix this line"),
+                            ))
+                        }
                     }
                 }
             }
             Some("f") => {
                 let refs: Vec<&str> = it.collect();
                 if refs.len() < 3 {
-                    return Err(InputError::at(path, n, format!("face has {} vertices, needs at least 3: fix this line", refs.len())));
+                    return Err(InputError::at(
+                        path,
+                        n,
+                        format!(
+                            "face has {} vertices, needs at least 3: fix this line",
+                            refs.len()
+                        ),
+                    ));
                 }
                 for r in refs {
                     let idx = r.split('/').next().unwrap_or("");
                     let k: i64 = idx.parse().map_err(|_| {
-                        InputError::at(path, n, format!("face index '{r}' is not an integer: fix this line"))
+                        InputError::at(
+                            path,
+                            n,
+                            format!("face index '{r}' is not an integer: fix this line"),
+                        )
                     })?;
                     // Negative indices count back from the vertices so far.
                     let resolved = if k < 0 { seen + k + 1 } else { k };
@@ -114,10 +150,15 @@ fn check_obj(path: &Path, text: &str) -> Result<(), InputError> {
 
 fn load_stl(path: &Path) -> Result<Mesh, InputError> {
     let bytes = std::fs::read(path).map_err(|e| {
-        InputError::file(path, format!("cannot read the file ({e}): check the path and permissions"))
+        InputError::file(
+            path,
+            format!("cannot read the file ({e}): check the path and permissions"),
+        )
     })?;
     let ascii = bytes.trim_ascii_start().starts_with(b"solid")
-        && std::str::from_utf8(&bytes).map(|t| t.contains("facet")).unwrap_or(false);
+        && std::str::from_utf8(&bytes)
+            .map(|t| t.contains("facet"))
+            .unwrap_or(false);
     if ascii {
         // Locate bad numbers by line before stl_io parses.
         let text = String::from_utf8_lossy(&bytes);
@@ -126,12 +167,27 @@ fn load_stl(path: &Path) -> Result<Mesh, InputError> {
             if it.next() == Some("vertex") {
                 let vals: Vec<&str> = it.collect();
                 if vals.len() != 3 {
-                    return Err(InputError::at(path, i + 1, format!("vertex has {} coordinates, needs 3: fix this line", vals.len())));
+                    return Err(InputError::at(
+                        path,
+                        i + 1,
+                        format!(
+                            "vertex has {} coordinates, needs 3: fix this line",
+                            vals.len()
+                        ),
+                    ));
                 }
                 for v in vals {
                     match v.parse::<f32>() {
                         Ok(x) if x.is_finite() => {}
-                        _ => return Err(InputError::at(path, i + 1, format!("vertex coordinate '{v}' is not a finite number: fix this line"))),
+                        _ => {
+                            return Err(InputError::at(
+                                path,
+                                i + 1,
+                                format!(
+                                    "vertex coordinate '{v}' is not a finite number: fix this line"
+                                ),
+                            ))
+                        }
                     }
                 }
             }
@@ -141,15 +197,30 @@ fn load_stl(path: &Path) -> Result<Mesh, InputError> {
     let stl = stl_io::read_stl(&mut cursor)
         .map_err(|e| InputError::file(path, format!("invalid STL ({e}): re-export the mesh")))?;
     let vertices: Vec<[f32; 3]> = stl.vertices.iter().map(|v| [v[0], v[1], v[2]]).collect();
-    if let Some(i) = vertices.iter().position(|v| v.iter().any(|c| !c.is_finite())) {
-        return Err(InputError::file(path, format!("vertex {i} has a non-finite coordinate: re-export the mesh")));
+    if let Some(i) = vertices
+        .iter()
+        .position(|v| v.iter().any(|c| !c.is_finite()))
+    {
+        return Err(InputError::file(
+            path,
+            format!("vertex {i} has a non-finite coordinate: re-export the mesh"),
+        ));
     }
     let triangles = stl
         .faces
         .iter()
-        .map(|f| [f.vertices[0] as u32, f.vertices[1] as u32, f.vertices[2] as u32])
+        .map(|f| {
+            [
+                f.vertices[0] as u32,
+                f.vertices[1] as u32,
+                f.vertices[2] as u32,
+            ]
+        })
         .collect();
-    Ok(Mesh { vertices, triangles })
+    Ok(Mesh {
+        vertices,
+        triangles,
+    })
 }
 
 fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
@@ -169,12 +240,20 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
                     continue;
                 }
                 let reader = prim.reader(|b| buffers.get(b.index()).map(|d| &d.0[..]));
-                let Some(pos) = reader.read_positions() else { continue };
+                let Some(pos) = reader.read_positions() else {
+                    continue;
+                };
                 let base = mesh.vertices.len() as u32;
                 for p in pos {
                     let q = apply(m, p);
                     if q.iter().any(|c| !c.is_finite()) {
-                        return Err(InputError::file(path, format!("mesh {} has a non-finite vertex: re-export the mesh", gm.index())));
+                        return Err(InputError::file(
+                            path,
+                            format!(
+                                "mesh {} has a non-finite vertex: re-export the mesh",
+                                gm.index()
+                            ),
+                        ));
                     }
                     mesh.vertices.push(q);
                 }
@@ -185,7 +264,13 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
                 };
                 for t in idx.chunks_exact(3) {
                     if t.iter().any(|&i| i >= count) {
-                        return Err(InputError::file(path, format!("mesh {} has a face index out of range: re-export the mesh", gm.index())));
+                        return Err(InputError::file(
+                            path,
+                            format!(
+                                "mesh {} has a face index out of range: re-export the mesh",
+                                gm.index()
+                            ),
+                        ));
                     }
                     mesh.triangles.push([base + t[0], base + t[1], base + t[2]]);
                 }

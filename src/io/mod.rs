@@ -54,7 +54,10 @@ impl InputError {
 /// Read a whole file, mapping failures to a one-line error.
 pub fn read_to_string(path: &Path) -> Result<String, InputError> {
     std::fs::read_to_string(path).map_err(|e| {
-        InputError::file(path, format!("cannot read the file ({e}): check the path and permissions"))
+        InputError::file(
+            path,
+            format!("cannot read the file ({e}): check the path and permissions"),
+        )
     })
 }
 
@@ -72,7 +75,11 @@ impl Placement {
     /// Apply to a point.
     pub fn point(&self, p: [f32; 3]) -> [f32; 3] {
         let r = self.direction(p);
-        [r[0] + self.offset[0], r[1] + self.offset[1], r[2] + self.offset[2]]
+        [
+            r[0] + self.offset[0],
+            r[1] + self.offset[1],
+            r[2] + self.offset[2],
+        ]
     }
 
     /// Apply to a direction (rotation only).

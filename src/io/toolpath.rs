@@ -120,19 +120,26 @@ pub fn parse_waypoints(
         let mut v = [0f32; 6];
         for (k, f) in fields.iter().enumerate() {
             let x: f32 = f.parse().map_err(|_| {
-                InputError::at(path, n, format!("field {} '{f}' is not a number: fix this line", k + 1))
+                InputError::at(
+                    path,
+                    n,
+                    format!("field {} '{f}' is not a number: fix this line", k + 1),
+                )
             })?;
             if !x.is_finite() {
                 return Err(InputError::at(
                     path,
                     n,
-                    format!("field {} is {f}: every coordinate must be a finite number", k + 1),
+                    format!(
+                        "field {} is {f}: every coordinate must be a finite number",
+                        k + 1
+                    ),
                 ));
             }
             v[k] = x;
         }
         let len = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
-        if !(len > 1e-12) {
+        if len.is_nan() || len <= 1e-12 {
             return Err(InputError::at(
                 path,
                 n,
@@ -154,14 +161,19 @@ pub fn parse_waypoints(
 }
 
 fn stem(p: &Path) -> String {
-    p.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default()
+    p.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 /// Files with one of `exts` in `dir`, sorted naturally: by leading number,
 /// then by the rest of the name (`2 < 10 < 10S`).
 fn list_sorted(dir: &Path, exts: &[&str]) -> Result<Vec<PathBuf>, InputError> {
     let rd = std::fs::read_dir(dir).map_err(|e| {
-        InputError::file(dir, format!("cannot list the folder ({e}): check the toolpath layout"))
+        InputError::file(
+            dir,
+            format!("cannot list the folder ({e}): check the toolpath layout"),
+        )
     })?;
     let mut files: Vec<PathBuf> = rd
         .filter_map(|e| e.ok().map(|e| e.path()))

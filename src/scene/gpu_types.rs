@@ -81,7 +81,10 @@ impl GpuNode {
     #[inline(always)]
     pub fn leaf_range(&self) -> Option<(u32, u32)> {
         if self.packed & LEAF_BIT != 0 {
-            Some((self.packed & (MAX_TRIS - 1), ((self.packed >> 27) & 0xF) + 1))
+            Some((
+                self.packed & (MAX_TRIS - 1),
+                ((self.packed >> 27) & 0xF) + 1,
+            ))
         } else {
             None
         }
@@ -89,7 +92,7 @@ impl GpuNode {
 
     /// Pack a leaf range.
     pub fn pack_leaf(first: u32, count: u32) -> u32 {
-        debug_assert!(count >= 1 && count <= MAX_LEAF_TRIS && first < MAX_TRIS);
+        debug_assert!((1..=MAX_LEAF_TRIS).contains(&count) && first < MAX_TRIS);
         LEAF_BIT | ((count - 1) << 27) | first
     }
 }

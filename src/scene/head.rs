@@ -87,10 +87,7 @@ impl Head {
                 }
             })
             .collect();
-        let StampedBvh {
-            nodes,
-            triangles,
-        } = bvh::build(&tris, 4)?;
+        let StampedBvh { nodes, triangles } = bvh::build(&tris, 4)?;
         let frame = ray_frame();
         let ray_triangles = triangles
             .iter()
@@ -166,9 +163,17 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
             for t in &tris {
                 let lo = [0, 1, 2].map(|k| t[0][k].min(t[1][k]).min(t[2][k]));
                 let hi = [0, 1, 2].map(|k| t[0][k].max(t[1][k]).max(t[2][k]));
-                if x >= lo[0] - band64 && x <= hi[0] + band64 && y >= lo[1] - band64 && y <= hi[1] + band64 {
-                    let k0 = (((lo[2] - band64 - origin[2] as f64) / cell as f64).floor().max(0.0)) as usize;
-                    let k1 = ((((hi[2] + band64 - origin[2] as f64) / cell as f64).ceil()) as usize).min(nz);
+                if x >= lo[0] - band64
+                    && x <= hi[0] + band64
+                    && y >= lo[1] - band64
+                    && y <= hi[1] + band64
+                {
+                    let k0 = (((lo[2] - band64 - origin[2] as f64) / cell as f64)
+                        .floor()
+                        .max(0.0)) as usize;
+                    let k1 = ((((hi[2] + band64 - origin[2] as f64) / cell as f64).ceil())
+                        as usize)
+                        .min(nz);
                     for (k, d) in dist.iter_mut().enumerate().take(k1).skip(k0) {
                         let p = [x, y, centre(k, 2)];
                         *d = d.min(point_triangle_distance(p, t[0], t[1], t[2]));
@@ -211,7 +216,11 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
     let coarse: Vec<f64> = (0..cdims[0] * cdims[1] * cdims[2])
         .into_par_iter()
         .map(|c| {
-            let (i, j, k) = (c % cdims[0], (c / cdims[0]) % cdims[1], c / (cdims[0] * cdims[1]));
+            let (i, j, k) = (
+                c % cdims[0],
+                (c / cdims[0]) % cdims[1],
+                c / (cdims[0] * cdims[1]),
+            );
             let p = [ccentre(i, 0), ccentre(j, 1), ccentre(k, 2)];
             tris.iter()
                 .map(|t| point_triangle_distance(p, t[0], t[1], t[2]))

@@ -28,7 +28,9 @@ pub enum SceneError {
     #[error("the head mesh is inside out (negative volume): flip its triangle winding")]
     HeadInsideOut,
     /// More triangles than one BVH can index.
-    #[error("{0} triangles exceed the 134,217,728 one BVH can index: split the part into layer ranges")]
+    #[error(
+        "{0} triangles exceed the 134,217,728 one BVH can index: split the part into layer ranges"
+    )]
     TooLarge(usize),
     /// A bug, not a user error.
     #[error("internal error: {0}")]

@@ -26,7 +26,8 @@ pub fn star_head(radii: &[f32], cone_h: f32, h: f32, shift: [f32; 2]) -> Mesh {
     for z in [cone_h, h] {
         for (j, r) in radii.iter().enumerate() {
             let a = std::f32::consts::TAU * j as f32 / n as f32;
-            m.vertices.push([shift[0] + r * a.cos(), shift[1] + r * a.sin(), z]);
+            m.vertices
+                .push([shift[0] + r * a.cos(), shift[1] + r * a.sin(), z]);
         }
     }
     let lo = |j: u32| 2 + (j % n);
@@ -75,27 +76,46 @@ pub fn random_toolpath(rng: &mut ChaCha8Rng, layers: usize, dz: f32) -> Toolpath
         let mut surface = height_patch([-15.0, 15.0], [-10.0, 10.0], 24, f);
         // Isolated tiny triangles floating above the surface.
         for _ in 0..4 {
-            let c = [rng.random_range(-12.0..12.0), rng.random_range(-8.0..8.0), 0.0];
+            let c = [
+                rng.random_range(-12.0..12.0),
+                rng.random_range(-8.0..8.0),
+                0.0,
+            ];
             let z = f(c[0], c[1]) + rng.random_range(2.0..8.0);
             let b = surface.vertices.len() as u32;
             let s: f32 = rng.random_range(0.05..0.4);
-            surface.vertices.extend([[c[0], c[1], z], [c[0] + s, c[1], z], [c[0], c[1] + s, z + s * 0.3]]);
+            surface.vertices.extend([
+                [c[0], c[1], z],
+                [c[0] + s, c[1], z],
+                [c[0], c[1] + s, z + s * 0.3],
+            ]);
             surface.triangles.push([b, b + 1, b + 2]);
         }
         let mut waypoints = Vec::new();
         for row in 0..10 {
             let y = -9.0 + 2.0 * row as f32;
             for col in 0..14 {
-                let x = if row % 2 == 0 { -14.0 + 2.0 * col as f32 } else { 12.0 - 2.0 * col as f32 };
+                let x = if row % 2 == 0 {
+                    -14.0 + 2.0 * col as f32
+                } else {
+                    12.0 - 2.0 * col as f32
+                };
                 // Surface normal of the height field.
                 let h = 1e-3;
                 let gx = (f(x + h, y) - f(x - h, y)) / (2.0 * h);
                 let gy = (f(x, y + h) - f(x, y - h)) / (2.0 * h);
                 let l = (gx * gx + gy * gy + 1.0).sqrt();
-                waypoints.push(Waypoint { pos: [x, y, f(x, y)], dir: [-gx / l, -gy / l, 1.0 / l] });
+                waypoints.push(Waypoint {
+                    pos: [x, y, f(x, y)],
+                    dir: [-gx / l, -gy / l, 1.0 / l],
+                });
             }
         }
-        out.layers.push(Layer { name: k.to_string(), waypoints, surface: Some(surface) });
+        out.layers.push(Layer {
+            name: k.to_string(),
+            waypoints,
+            surface: Some(surface),
+        });
     }
     out
 }
@@ -115,8 +135,16 @@ pub fn random_queries(rng: &mut ChaCha8Rng, scene: &Scene, count: usize) -> Vec<
             let mut pose = base.pose.tilted(tilt, az);
             let lift: f32 = rng.random_range(-1.0..4.0);
             let a = pose.axis();
-            pose.tip = [pose.tip[0] + a[0] * lift, pose.tip[1] + a[1] * lift, pose.tip[2] + a[2] * lift];
-            let cutoff = if rng.random_bool(0.5) { base.cutoff } else { rng.random_range(1..=n + 1) };
+            pose.tip = [
+                pose.tip[0] + a[0] * lift,
+                pose.tip[1] + a[1] * lift,
+                pose.tip[2] + a[2] * lift,
+            ];
+            let cutoff = if rng.random_bool(0.5) {
+                base.cutoff
+            } else {
+                rng.random_range(1..=n + 1)
+            };
             Query { pose, cutoff }
         })
         .collect()
@@ -125,21 +153,35 @@ pub fn random_queries(rng: &mut ChaCha8Rng, scene: &Scene, count: usize) -> Vec<
 /// Distance between the head at `q` and the existing part triangles
 /// (surfaces only), by parry — how "near" a contact is.
 pub fn surface_distance(scene: &Scene, q: &Query) -> f32 {
-    let tris: Vec<&maamplan::scene::GpuTriangle> =
-        scene.part_tris.iter().filter(|t| t.stamp < q.cutoff).collect();
+    let tris: Vec<&maamplan::scene::GpuTriangle> = scene
+        .part_tris
+        .iter()
+        .filter(|t| t.stamp < q.cutoff)
+        .collect();
     if tris.is_empty() {
         return f32::INFINITY;
     }
     let v = |p: V3| Vector::new(p[0], p[1], p[2]);
-    let verts: Vec<Vector> = tris.iter().flat_map(|t| [v(t.v0), v(t.v1), v(t.v2)]).collect();
-    let idx: Vec<[u32; 3]> = (0..tris.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
+    let verts: Vec<Vector> = tris
+        .iter()
+        .flat_map(|t| [v(t.v0), v(t.v1), v(t.v2)])
+        .collect();
+    let idx: Vec<[u32; 3]> = (0..tris.len() as u32)
+        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+        .collect();
     let part = TriMesh::new(verts, idx).expect("part mesh");
     let h = &scene.head.mesh;
-    let head = TriMesh::new(h.vertices.iter().map(|p| v(*p)).collect(), h.triangles.clone()).expect("head mesh");
+    let head = TriMesh::new(
+        h.vertices.iter().map(|p| v(*p)).collect(),
+        h.triangles.clone(),
+    )
+    .expect("head mesh");
     let c = &q.pose.cols;
     let rot = Rotation::from_mat3(&Matrix::from_cols(v(c[0]), v(c[1]), v(c[2])));
     let pose = PPose::from_parts(v(q.pose.tip), rot);
-    parry3d::query::distance(&pose, &head, &PPose::identity(), &part).expect("distance").distance
+    parry3d::query::distance(&pose, &head, &PPose::identity(), &part)
+        .expect("distance")
+        .distance
 }
 
 /// A pose with the head axis `axis` at `tip`.
