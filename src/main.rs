@@ -9,6 +9,12 @@ use maamplan::scene::SceneError;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
+    // Mesa's Vulkan loader probes Wayland and prints an "error:" line when
+    // XDG_RUNTIME_DIR is unset (headless machines, CI); point it somewhere
+    // harmless before any thread exists.
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+        std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+    }
     let args = cli::Cli::parse();
     match cli::run(args) {
         Ok(()) => ExitCode::SUCCESS,

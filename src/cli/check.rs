@@ -16,7 +16,7 @@ pub struct CheckArgs {
     #[command(flatten)]
     scene: SceneArgs,
     /// Collision evaluator.
-    #[arg(long, value_enum, default_value_t = BackendKind::Cpu)]
+    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
     /// Also write the results as JSON to this file.
     #[arg(long)]

@@ -3,10 +3,12 @@
 
 mod bench;
 mod check;
+mod info;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use maamplan::collide::cpu::CpuBackend;
+use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
 use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
 use maamplan::default_job;
@@ -33,6 +35,8 @@ enum Command {
     Check(check::CheckArgs),
     /// Measure poses per second of several backends on the same queries.
     Bench(bench::BenchArgs),
+    /// List GPU adapters, their kind (hardware / software) and limits.
+    Info,
 }
 
 /// Inputs shared by every command.
@@ -62,6 +66,10 @@ pub struct SceneArgs {
 /// Backends selectable on the command line.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BackendKind {
+    /// A hardware GPU when present, the CPU otherwise.
+    Auto,
+    /// wgpu compute shaders on the best adapter (software ones included).
+    Gpu,
     /// Exact BVH + distance-grid evaluator on all CPU cores.
     Cpu,
     /// The same semantics from parry3d's primitives (the reference).
@@ -72,6 +80,8 @@ impl BackendKind {
     /// The name used on the command line.
     pub fn name(self) -> &'static str {
         match self {
+            BackendKind::Auto => "auto",
+            BackendKind::Gpu => "gpu",
             BackendKind::Cpu => "cpu",
             BackendKind::Parry => "parry",
         }
@@ -80,6 +90,33 @@ impl BackendKind {
     /// Build the backend over `scene`.
     pub fn build<'a>(self, scene: &'a Scene) -> Result<Box<dyn Backend + 'a>> {
         Ok(match self {
+            BackendKind::Auto => match GpuContext::open(true) {
+                Ok(Some(ctx)) => {
+                    let name = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
+                    let b = GpuBackend::new(ctx, scene, GpuOptions::default())?;
+                    eprintln!("backend auto: gpu on {name}");
+                    Box::new(b)
+                }
+                Ok(None) => {
+                    eprintln!(
+                        "backend auto: no hardware GPU, using cpu ({} threads)",
+                        rayon::current_num_threads()
+                    );
+                    Box::new(CpuBackend::new(scene))
+                }
+                Err(e) => {
+                    eprintln!("backend auto: {e}; using cpu");
+                    Box::new(CpuBackend::new(scene))
+                }
+            },
+            BackendKind::Gpu => {
+                let ctx = GpuContext::open(false)?.ok_or_else(|| {
+                    UsageError(
+                        "--backend gpu: no GPU adapter found: install a Vulkan driver (on Debian/Ubuntu, mesa-vulkan-drivers gives the lavapipe software adapter) or use --backend cpu".into(),
+                    )
+                })?;
+                Box::new(GpuBackend::new(ctx, scene, GpuOptions::default())?)
+            }
             BackendKind::Cpu => Box::new(CpuBackend::new(scene)),
             BackendKind::Parry => Box::new(ParryBackend::new(scene)?),
         })
@@ -206,6 +243,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Check(a) => check::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Info => info::run(),
     }
 }
 

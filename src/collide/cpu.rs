@@ -184,10 +184,12 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
     let a = to_head(q, tri.v0);
     let b = to_head(q, tri.v1);
     let c = to_head(q, tri.v2);
+    // Multiply, not divide: WGSL division is not exactly rounded.
+    const THIRD: f32 = 1.0 / 3.0;
     let m = [
-        (a[0] + b[0] + c[0]) / 3.0,
-        (a[1] + b[1] + c[1]) / 3.0,
-        (a[2] + b[2] + c[2]) / 3.0,
+        (a[0] + b[0] + c[0]) * THIRD,
+        (a[1] + b[1] + c[1]) * THIRD,
+        (a[2] + b[2] + c[2]) * THIRD,
     ];
     let r = length(sub(a, m))
         .max(length(sub(b, m)))
@@ -249,7 +251,7 @@ pub fn point_in_head(s: &SceneView, p: V3) -> bool {
         h.ray_b[0] * p[0] + h.ray_b[1] * p[1] + h.ray_b[2] * p[2],
         h.ray_d[0] * p[0] + h.ray_d[1] * p[1] + h.ray_d[2] * p[2],
     ];
-    let inv = [1.0 / h.ray_d[0], 1.0 / h.ray_d[1], 1.0 / h.ray_d[2]];
+    let inv = h.inv_ray;
     let tol = h.tol;
     let mut inside = false;
     let mut stack = [0u32; STACK_SIZE];

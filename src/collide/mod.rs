@@ -6,6 +6,7 @@
 
 pub mod brute;
 pub mod cpu;
+pub mod gpu;
 pub mod parry;
 pub mod sample;
 

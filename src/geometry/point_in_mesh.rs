@@ -8,9 +8,10 @@
 //! sign. When an edge function is exactly zero its sign is taken from the
 //! point perturbed by `(ε, ε²)` (simulation of simplicity): `e` is linear in
 //! `p`, so the perturbed sign is `sign(a.y - b.y)`, then `sign(b.x - a.x)`.
-//! Shared edges have exactly antisymmetric edge functions in floating point
-//! (the same two products, subtracted the other way), so neighbours always
-//! agree. A triangle parallel to the ray is never counted, which is right for
+//! Each edge is evaluated from its lexicographically smaller vertex, so the
+//! two triangles sharing it compute the identical expression and always
+//! get opposite signs, however the compiler fuses multiply-adds (lavapipe
+//! showed that the plain form is not safe on a GPU). A triangle parallel to the ray is never counted, which is right for
 //! parity. `shaders/shared/point_in_mesh.wgsl` mirrors this file.
 
 use super::V3;
@@ -52,10 +53,17 @@ pub fn to_ray_space(frame: &[V3; 3], p: V3) -> V3 {
     ]
 }
 
-/// Signed edge function of edge `a → b` seen from `p`, with the
-/// simulation-of-simplicity tie-break. Returns `true` for positive.
+/// Lexicographic order of vertices, used to evaluate every edge in one
+/// canonical direction.
 #[inline(always)]
-fn edge_positive(a: V3, b: V3, p: V3) -> bool {
+fn less(a: V3, b: V3) -> bool {
+    a[0] < b[0] || (a[0] == b[0] && (a[1] < b[1] || (a[1] == b[1] && a[2] < b[2])))
+}
+
+/// Sign of the edge function of `a → b` seen from `p`, with the
+/// simulation-of-simplicity tie-break. `true` for positive.
+#[inline(always)]
+fn edge_positive_ordered(a: V3, b: V3, p: V3) -> bool {
     let e = (a[0] - p[0]) * (b[1] - p[1]) - (a[1] - p[1]) * (b[0] - p[0]);
     if e != 0.0 {
         return e > 0.0;
@@ -65,6 +73,19 @@ fn edge_positive(a: V3, b: V3, p: V3) -> bool {
         return s > 0.0;
     }
     b[0] - a[0] > 0.0
+}
+
+/// Edge sign of `a → b`, always computed from the lexicographically smaller
+/// vertex: the two triangles sharing an edge then evaluate the very same
+/// expression and get exactly opposite signs, even where a compiler (a GPU
+/// driver) fuses the multiply-adds differently.
+#[inline(always)]
+fn edge_positive(a: V3, b: V3, p: V3) -> bool {
+    if less(b, a) {
+        !edge_positive_ordered(b, a, p)
+    } else {
+        edge_positive_ordered(a, b, p)
+    }
 }
 
 /// Does the ray from `p` (ray space) cross triangle `(a, b, c)` (ray space)

@@ -93,13 +93,15 @@ fn check_obj(path: &Path, text: &str) -> Result<(), InputError> {
                 for v in &vals[..3] {
                     match v.parse::<f32>() {
                         Ok(x) if x.is_finite() => {}
-                        Ok(_) => return Err(InputError::at(
-                            path,
-                            n,
-                            format!(
+                        Ok(_) => {
+                            return Err(InputError::at(
+                                path,
+                                n,
+                                format!(
                                 "vertex coordinate {v}: every coordinate must be a finite number"
                             ),
-                        )),
+                            ))
+                        }
                         Err(_) => {
                             return Err(InputError::at(
                                 path,

@@ -137,10 +137,10 @@ pub struct GpuHeadParams {
     pub ray_b: [f32; 4],
     /// Ray direction.
     pub ray_d: [f32; 4],
+    /// `1 / ray_d`, component-wise (the ray direction has no zero component).
+    pub inv_ray: [f32; 3],
     /// `1 / cell`.
     pub inv_cell: f32,
-    /// Padding.
-    pub _pad: [f32; 3],
 }
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);

@@ -121,7 +121,7 @@ impl Head {
             ray_b: [frame[1][0], frame[1][1], frame[1][2], 0.0],
             ray_d: [frame[2][0], frame[2][1], frame[2][2], 0.0],
             inv_cell: 1.0 / cell,
-            _pad: [0.0; 3],
+            inv_ray: [1.0 / frame[2][0], 1.0 / frame[2][1], 1.0 / frame[2][2]],
         };
         Ok(Head {
             mesh,

@@ -1,0 +1,19 @@
+// Pass 2, one invocation per candidate (query, triangle): the exact tests
+// (Möller against the head, then containment) for triangles the grid could
+// not settle.
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let k = gid.x;
+    if k >= min(atomicLoad(&control.count), params.capacity) {
+        return;
+    }
+    let pair = candidates[k];
+    if atomicLoad(&results[pair.x]) != 0u {
+        return; // Already colliding.
+    }
+    let h = head_tri(queries[pair.x], part_tri(pair.y));
+    if tri_hits_exact(h.a, h.b, h.c) {
+        atomicOr(&results[pair.x], 1u);
+    }
+}

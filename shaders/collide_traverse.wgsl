@@ -1,0 +1,55 @@
+// Pass 1 of a batch, one invocation per query: walk the part BVH, settle
+// what the distance grid can (nodes and triangles wholly outside or
+// inside the head) and append the undecided (query, triangle) pairs to the
+// candidate list for collide_exact. Splitting the work this way keeps each
+// kernel's loops un-nested, which lavapipe needs to compile them correctly,
+// and spreads the exact tests evenly over the GPU's threads.
+
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let qi = gid.x;
+    if qi >= params.query_count {
+        return;
+    }
+    let q = queries[qi];
+    var stack: array<u32, STACK_SIZE>;
+    var sp = 1u;
+    stack[0] = 0u;
+    var hit = false;
+    while sp > 0u && !hit {
+        sp -= 1u;
+        let node = part_node(stack[sp]);
+        if node.min_stamp < q.cutoff {
+            let cls = classify(to_head(q, node.center), node.radius);
+            if cls < 0 {
+                hit = true;
+            } else if cls == 0 {
+                if is_leaf(node.packed) {
+                    let first = leaf_first(node.packed);
+                    let end = first + leaf_count(node.packed);
+                    for (var t = first; t < end; t++) {
+                        let tri = part_tri(t);
+                        if tri.stamp < q.cutoff {
+                            let h = head_tri(q, tri);
+                            if h.cls < 0 {
+                                hit = true;
+                            } else if h.cls == 0 {
+                                let k = atomicAdd(&control.count, 1u);
+                                if k < params.capacity {
+                                    candidates[k] = vec2<u32>(qi, t);
+                                }
+                            }
+                        }
+                    }
+                } else {
+                    stack[sp] = node.packed;
+                    stack[sp + 1u] = node.packed + 1u;
+                    sp += 2u;
+                }
+            }
+        }
+    }
+    if hit {
+        atomicStore(&results[qi], 1u);
+    }
+}

@@ -1,0 +1,214 @@
+// Bindings and per-query helpers shared by the collide_* kernels (one
+// pipeline layout serves them all; src/collide/gpu/collide.rs builds it).
+// Mirrors src/collide/cpu.rs function for function.
+
+struct Params {
+    // Elements per part-node / part-triangle binding (scenes larger than one
+    // storage binding are split across several).
+    nodes_per_chunk: u32,
+    tris_per_chunk: u32,
+    query_count: u32,
+    // Capacity of the candidate list.
+    capacity: u32,
+}
+
+// Candidate counter, then the indirect dispatch size of collide_exact.
+struct Control {
+    count: atomic<u32>,
+    args: array<u32, 3>,
+}
+
+@group(0) @binding(0) var<uniform> params: Params;
+@group(0) @binding(1) var<uniform> head: HeadParams;
+@group(0) @binding(2) var<storage, read> queries: array<Query>;
+@group(0) @binding(3) var<storage, read_write> results: array<atomic<u32>>;
+@group(0) @binding(4) var<storage, read> head_nodes: array<Node>;
+@group(0) @binding(5) var<storage, read> head_tris: array<Triangle>;
+@group(0) @binding(6) var<storage, read> head_ray_tris: array<Triangle>;
+@group(0) @binding(7) var<storage, read> grid: array<f32>;
+@group(0) @binding(8) var<storage, read> part_nodes0: array<PartNode>;
+@group(0) @binding(9) var<storage, read> part_nodes1: array<PartNode>;
+@group(0) @binding(10) var<storage, read> part_tris0: array<Triangle>;
+@group(0) @binding(11) var<storage, read> part_tris1: array<Triangle>;
+@group(0) @binding(12) var<storage, read> part_tris2: array<Triangle>;
+@group(0) @binding(13) var<storage, read> part_tris3: array<Triangle>;
+// (query, triangle) pairs the traversal could not settle.
+@group(0) @binding(14) var<storage, read_write> candidates: array<vec2<u32>>;
+@group(0) @binding(15) var<storage, read_write> control: Control;
+
+const STACK_SIZE: u32 = 64u;
+const WORKGROUP: u32 = 64u;
+
+fn part_node(i: u32) -> PartNode {
+    let c = i / params.nodes_per_chunk;
+    let j = i - c * params.nodes_per_chunk;
+    if c == 0u {
+        return part_nodes0[j];
+    }
+    return part_nodes1[j];
+}
+
+fn part_tri(i: u32) -> Triangle {
+    let c = i / params.tris_per_chunk;
+    let j = i - c * params.tris_per_chunk;
+    switch c {
+        case 0u: {
+            return part_tris0[j];
+        }
+        case 1u: {
+            return part_tris1[j];
+        }
+        case 2u: {
+            return part_tris2[j];
+        }
+        default: {
+            return part_tris3[j];
+        }
+    }
+}
+
+fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
+    let d = vec3<f32>(p.x - q.rows[0].w, p.y - q.rows[1].w, p.z - q.rows[2].w);
+    return vec3<f32>(
+        q.rows[0].x * d.x + q.rows[0].y * d.y + q.rows[0].z * d.z,
+        q.rows[1].x * d.x + q.rows[1].y * d.y + q.rows[1].z * d.z,
+        q.rows[2].x * d.x + q.rows[2].y * d.y + q.rows[2].z * d.z,
+    );
+}
+
+// 1 = wholly outside, -1 = wholly inside, 0 = cannot tell.
+fn classify(c: vec3<f32>, r: f32) -> i32 {
+    let fx = (c.x - head.grid_origin.x) * head.inv_cell;
+    let fy = (c.y - head.grid_origin.y) * head.inv_cell;
+    let fz = (c.z - head.grid_origin.z) * head.inv_cell;
+    let nx = head.grid_dims.x;
+    let ny = head.grid_dims.y;
+    let nz = head.grid_dims.z;
+    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(nx) && fy < f32(ny) && fz < f32(nz)) {
+        let d = point_box_distance(c, head.aabb_min, head.aabb_max);
+        if d - head.margin > r {
+            return 1;
+        }
+        return 0;
+    }
+    let ix = min(u32(fx), nx - 1u);
+    let iy = min(u32(fy), ny - 1u);
+    let iz = min(u32(fz), nz - 1u);
+    let v = grid[(iz * ny + iy) * nx + ix];
+    let slack = abs(v) - head.margin - r;
+    if slack <= 0.0 {
+        return 0;
+    }
+    let dx = c.x - (head.grid_origin.x + (f32(ix) + 0.5) * head.cell);
+    let dy = c.y - (head.grid_origin.y + (f32(iy) + 0.5) * head.cell);
+    let dz = c.z - (head.grid_origin.z + (f32(iz) + 0.5) * head.cell);
+    if slack * slack > dx * dx + dy * dy + dz * dz {
+        if v < 0.0 {
+            return -1;
+        }
+        return 1;
+    }
+    return 0;
+}
+
+fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
+    let tol = head.tol;
+    let plane = tri_plane(a, b, c, tol);
+    var stack: array<u32, STACK_SIZE>;
+    var sp = 1u;
+    stack[0] = 0u;
+    var hit = false;
+    while sp > 0u && !hit {
+        sp -= 1u;
+        let node = head_nodes[stack[sp]];
+        if triangle_box_overlap(a, b, c, tol, node.min, node.max) {
+            if is_leaf(node.packed) {
+                let first = leaf_first(node.packed);
+                let end = first + leaf_count(node.packed);
+                for (var t = first; t < end; t++) {
+                    let h = head_tris[t];
+                    if tri_plane_overlaps(plane, a, b, c, h.v0, h.v1, h.v2, tol) {
+                        hit = true;
+                    }
+                }
+            } else {
+                stack[sp] = node.packed;
+                stack[sp + 1u] = node.packed + 1u;
+                sp += 2u;
+            }
+        }
+    }
+    return hit;
+}
+
+fn point_in_head(p: vec3<f32>) -> bool {
+    let pr = vec3<f32>(
+        head.ray_a.x * p.x + head.ray_a.y * p.y + head.ray_a.z * p.z,
+        head.ray_b.x * p.x + head.ray_b.y * p.y + head.ray_b.z * p.z,
+        head.ray_d.x * p.x + head.ray_d.y * p.y + head.ray_d.z * p.z,
+    );
+    let inv = head.inv_ray;
+    let tol = head.tol;
+    var crossings = 0u;
+    var stack: array<u32, STACK_SIZE>;
+    var sp = 1u;
+    stack[0] = 0u;
+    while sp > 0u {
+        sp -= 1u;
+        let node = head_nodes[stack[sp]];
+        let t0x = (node.min.x - tol - p.x) * inv.x;
+        let t1x = (node.max.x + tol - p.x) * inv.x;
+        let t0y = (node.min.y - tol - p.y) * inv.y;
+        let t1y = (node.max.y + tol - p.y) * inv.y;
+        let t0z = (node.min.z - tol - p.z) * inv.z;
+        let t1z = (node.max.z + tol - p.z) * inv.z;
+        let tmin = max(max(max(min(t0x, t1x), min(t0y, t1y)), min(t0z, t1z)), 0.0);
+        let tmax = min(min(max(t0x, t1x), max(t0y, t1y)), max(t0z, t1z));
+        if tmax >= tmin {
+            if is_leaf(node.packed) {
+                let first = leaf_first(node.packed);
+                let end = first + leaf_count(node.packed);
+                for (var t = first; t < end; t++) {
+                    let r = head_ray_tris[t];
+                    crossings += select(0u, 1u, ray_crosses(r.v0, r.v1, r.v2, pr));
+                }
+            } else {
+                stack[sp] = node.packed;
+                stack[sp + 1u] = node.packed + 1u;
+                sp += 2u;
+            }
+        }
+    }
+    return (crossings & 1u) == 1u;
+}
+
+// The triangle in the head frame with its bounding sphere's classification
+// (1 outside, -1 inside, 0 undecided); the first half of cpu.rs `tri_hits`.
+struct HeadTri {
+    a: vec3<f32>,
+    b: vec3<f32>,
+    c: vec3<f32>,
+    cls: i32,
+}
+
+fn head_tri(q: Query, tri: Triangle) -> HeadTri {
+    let a = to_head(q, tri.v0);
+    let b = to_head(q, tri.v1);
+    let c = to_head(q, tri.v2);
+    let third = 1.0 / 3.0;
+    let m = (a + b + c) * third;
+    let r = max(max(len3(a - m), len3(b - m)), len3(c - m));
+    return HeadTri(a, b, c, classify(m, r));
+}
+
+// The exact half of cpu.rs `tri_hits`, for an undecided triangle.
+fn tri_hits_exact(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
+    if tri_crosses_head(a, b, c) {
+        return true;
+    }
+    let cls_a = classify(a, 0.0);
+    if cls_a != 0 {
+        return cls_a < 0;
+    }
+    return point_in_head(a);
+}

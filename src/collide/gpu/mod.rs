@@ -1,0 +1,11 @@
+//! The `gpu` backend: wgpu compute shaders over the stamped BVH, thousands of
+//! poses per dispatch. `context.rs` picks the adapter and opens the device,
+//! `collide.rs` is the host side of `shaders/collide.wgsl`, `shaders.rs`
+//! holds the WGSL sources.
+
+pub mod collide;
+pub mod context;
+pub mod shaders;
+
+pub use collide::{GpuBackend, GpuOptions};
+pub use context::{list_adapters, AdapterSummary, GpuContext};

@@ -1,0 +1,84 @@
+//! Every WGSL kernel parses and validates with naga (no GPU needed), and the
+//! WGSL structs have the sizes and field offsets of their Rust twins.
+
+use maamplan::collide::gpu::shaders::{ALL, COLLIDE_TRAVERSE};
+use maamplan::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
+use naga::valid::{Capabilities, ValidationFlags, Validator};
+
+#[test]
+fn every_shader_validates() {
+    for (name, src) in ALL {
+        let module = naga::front::wgsl::parse_str(src)
+            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+        Validator::new(ValidationFlags::all(), Capabilities::default())
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    }
+}
+
+#[test]
+fn struct_layouts_match_rust() {
+    let module = naga::front::wgsl::parse_str(COLLIDE_TRAVERSE).unwrap();
+    let mut layouter = naga::proc::Layouter::default();
+    layouter.update(module.to_ctx()).unwrap();
+    let size = |name: &str| -> u32 {
+        let (h, _) = module
+            .types
+            .iter()
+            .find(|(_, t)| t.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no struct {name}"));
+        layouter[h].size
+    };
+    assert_eq!(
+        size("Triangle") as usize,
+        std::mem::size_of::<GpuTriangle>()
+    );
+    assert_eq!(size("Node") as usize, std::mem::size_of::<GpuNode>());
+    assert_eq!(
+        size("PartNode") as usize,
+        std::mem::size_of::<GpuPartNode>()
+    );
+    assert_eq!(size("Query") as usize, std::mem::size_of::<GpuQuery>());
+    assert_eq!(
+        size("HeadParams") as usize,
+        std::mem::size_of::<GpuHeadParams>()
+    );
+    // Field offsets of the largest struct, where drift is most likely.
+    let (_, head) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("HeadParams"))
+        .unwrap();
+    let naga::TypeInner::Struct { members, .. } = &head.inner else {
+        panic!("HeadParams is a struct")
+    };
+    let offsets: Vec<(String, u32)> = members
+        .iter()
+        .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+        .collect();
+    let want = [
+        ("aabb_min", 0),
+        ("tol", 12),
+        ("aabb_max", 16),
+        ("margin", 28),
+        ("grid_origin", 32),
+        ("cell", 44),
+        ("grid_dims", 48),
+        ("tri_count", 60),
+        ("ray_a", 64),
+        ("ray_b", 80),
+        ("ray_d", 96),
+        ("inv_ray", 112),
+        ("inv_cell", 124),
+    ];
+    for (name, off) in want {
+        let got = offsets.iter().find(|(n, _)| n == name).map(|(_, o)| *o);
+        assert_eq!(got, Some(off), "HeadParams.{name}");
+    }
+    // And the Rust side, by construction of a value.
+    let p = GpuHeadParams::default();
+    let base = &p as *const _ as usize;
+    assert_eq!(&p.inv_ray as *const _ as usize - base, 112);
+    assert_eq!(&p.inv_cell as *const _ as usize - base, 124);
+    assert_eq!(&p.grid_dims as *const _ as usize - base, 48);
+}
