@@ -63,9 +63,15 @@ pub fn run(a: BenchArgs) -> Result<()> {
         times.sort_by(f64::total_cmp);
         let seconds = times[times.len() / 2];
         let colliding = verdicts.iter().filter(|&&c| c).count();
-        let disagree = reference
-            .as_ref()
-            .map(|r| r.iter().zip(&verdicts).filter(|(a, b)| a != b).count());
+        let differing: Option<Vec<usize>> = reference.as_ref().map(|r| {
+            r.iter()
+                .zip(&verdicts)
+                .enumerate()
+                .filter(|(_, (a, b))| a != b)
+                .map(|(i, _)| i)
+                .collect()
+        });
+        let disagree = differing.as_ref().map(|d| d.len());
         let pps = queries.len() as f64 / seconds.max(1e-9);
         println!(
             "{:>8}: {:>12.0} poses/s  {:>8.3} s (median of {})  colliding {:>7}  setup {:.3} s{}",
@@ -88,6 +94,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             "runs": times.len(),
             "colliding": colliding,
             "disagreements_with_first": disagree,
+            "disagreeing_queries": differing.map(|d| d.into_iter().take(100).collect::<Vec<_>>()),
         }));
         if reference.is_none() {
             reference = Some(verdicts);
