@@ -100,22 +100,33 @@ fn shell_surface(r: f32) -> Mesh {
 /// A closed head: a cone of half-angle `atan(radius / cone_height)` from
 /// the tip at the origin, then a cylinder up to `height`, axis +z.
 pub fn cone_head(radius: f32, cone_height: f32, height: f32, segments: u32) -> Mesh {
+    star_head(
+        &vec![radius; segments as usize],
+        cone_height,
+        height,
+        [0.0, 0.0],
+    )
+}
+
+/// A closed head whose cross-section is the star-shaped polygon with
+/// `radii` (equally spaced angles, centred at `shift`): a pyramid from the
+/// tip at the origin up to `cone_height`, then a prism up to `height`.
+/// Unequal radii and a shift make asymmetric, non-convex heads.
+pub fn star_head(radii: &[f32], cone_height: f32, height: f32, shift: [f32; 2]) -> Mesh {
+    let n = radii.len() as u32;
     let mut m = Mesh::default();
     m.vertices.push([0.0, 0.0, 0.0]); // 0: tip
-    m.vertices.push([0.0, 0.0, height]); // 1: top centre
-    let ring = |z: f32, j: u32| {
-        let a = 2.0 * PI * j as f32 / segments as f32;
-        [radius * a.cos(), radius * a.sin(), z]
-    };
-    for j in 0..segments {
-        m.vertices.push(ring(cone_height, j)); // 2 + j
+    m.vertices.push([shift[0], shift[1], height]); // 1: top centre
+    for z in [cone_height, height] {
+        for (j, r) in radii.iter().enumerate() {
+            let a = 2.0 * PI * j as f32 / n as f32;
+            m.vertices
+                .push([shift[0] + r * a.cos(), shift[1] + r * a.sin(), z]);
+        }
     }
-    for j in 0..segments {
-        m.vertices.push(ring(height, j)); // 2 + segments + j
-    }
-    let lo = |j: u32| 2 + (j % segments);
-    let hi = |j: u32| 2 + segments + (j % segments);
-    for j in 0..segments {
+    let lo = |j: u32| 2 + (j % n);
+    let hi = |j: u32| 2 + n + (j % n);
+    for j in 0..n {
         m.triangles.push([0, lo(j + 1), lo(j)]);
         m.triangles.push([lo(j), lo(j + 1), hi(j + 1)]);
         m.triangles.push([lo(j), hi(j + 1), hi(j)]);

@@ -40,18 +40,7 @@ fn simple_curve() -> Scene {
 fn compare(scene: &Scene, queries: &[Query]) -> usize {
     let cpu = CpuBackend::new(scene).evaluate(queries).unwrap();
     let parry = ParryBackend::new(scene).unwrap().evaluate(queries).unwrap();
-    let mut near = Vec::new();
-    for (i, (a, b)) in cpu.iter().zip(&parry).enumerate() {
-        if a != b {
-            let d = common::surface_distance(scene, &queries[i]);
-            assert!(
-                d < 1e-3,
-                "query {i}: cpu {a}, parry {b}, surfaces {d} mm apart"
-            );
-            near.push((i, d));
-        }
-    }
-    eprintln!("near-contact disagreements: {near:?}");
+    common::near_contacts_only(scene, queries, &cpu, &parry, "parry vs cpu");
     cpu.iter().filter(|&&c| c).count()
 }
 

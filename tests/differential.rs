@@ -34,27 +34,15 @@ fn agree(
     let truth = BruteBackend::new(scene).evaluate(queries).unwrap();
     for b in backends {
         let got = b.evaluate(queries).unwrap();
-        let mut listed = Vec::new();
-        for (i, (t, g)) in truth.iter().zip(&got).enumerate() {
-            if t != g {
-                let d = surface_distance(scene, &queries[i]);
-                assert!(
-                    d < 1e-3,
-                    "{what}: {} says {g}, brute force says {t} for query {i} ({:?}), surfaces {d} mm apart",
-                    b.name(),
-                    queries[i]
-                );
-                listed.push((i, d));
-            }
-        }
-        if !listed.is_empty() {
-            eprintln!(
-                "{what}: {} near-contact disagreements with brute force: {listed:?}",
-                b.name()
-            );
-        }
+        let near = near_contacts_only(
+            scene,
+            queries,
+            &truth,
+            &got,
+            &format!("{what}, {} vs brute force", b.name()),
+        );
         assert!(
-            listed.len() * 100 <= queries.len(),
+            near * 100 <= queries.len(),
             "{what}: too many near-contacts for {}",
             b.name()
         );

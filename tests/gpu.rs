@@ -39,20 +39,7 @@ fn agree(scene: &Scene, queries: &[Query], gpu: &GpuBackend, what: &str) -> usiz
     let cpu = CpuBackend::new(scene).evaluate(queries).unwrap();
     let got = gpu.evaluate(queries).unwrap();
     assert_eq!(got.len(), queries.len());
-    let mut near = Vec::new();
-    for (i, (c, g)) in cpu.iter().zip(&got).enumerate() {
-        if c != g {
-            let d = surface_distance(scene, &queries[i]);
-            assert!(
-                d < 1e-3,
-                "{what}: query {i}: cpu {c}, gpu {g}, surfaces {d} mm apart"
-            );
-            near.push((i, d));
-        }
-    }
-    if !near.is_empty() {
-        eprintln!("{what}: near-contact disagreements gpu vs cpu: {near:?}");
-    }
+    near_contacts_only(scene, queries, &cpu, &got, &format!("{what}, gpu vs cpu"));
     cpu.iter().filter(|&&c| c).count()
 }
 

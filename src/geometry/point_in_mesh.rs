@@ -136,24 +136,8 @@ mod tests {
 
     /// A unit cube as 12 triangles, outward-facing.
     fn cube() -> (Vec<V3>, Vec<[u32; 3]>) {
-        let v: Vec<V3> = (0..8)
-            .map(|i| [(i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32])
-            .collect();
-        let t = vec![
-            [0, 2, 1],
-            [1, 2, 3],
-            [4, 5, 6],
-            [5, 7, 6],
-            [0, 1, 4],
-            [1, 5, 4],
-            [2, 6, 3],
-            [3, 6, 7],
-            [0, 4, 2],
-            [2, 4, 6],
-            [1, 3, 5],
-            [3, 7, 5],
-        ];
-        (v, t)
+        let m = crate::default_job::box_mesh([0.0; 3], [1.0; 3]);
+        (m.vertices, m.triangles)
     }
 
     #[test]

@@ -15,31 +15,8 @@ pub fn rng(seed: u64) -> ChaCha8Rng {
     ChaCha8Rng::seed_from_u64(seed)
 }
 
-/// A closed, non-convex, asymmetric head: from the tip a "cone" whose
-/// cross-section is a star-shaped polygon with radii `radii`, widening up to
-/// `cone_h`, then a prism up to `h`, shifted sideways by `shift`.
-pub fn star_head(radii: &[f32], cone_h: f32, h: f32, shift: [f32; 2]) -> Mesh {
-    let n = radii.len() as u32;
-    let mut m = Mesh::default();
-    m.vertices.push([0.0, 0.0, 0.0]);
-    m.vertices.push([shift[0], shift[1], h]);
-    for z in [cone_h, h] {
-        for (j, r) in radii.iter().enumerate() {
-            let a = std::f32::consts::TAU * j as f32 / n as f32;
-            m.vertices
-                .push([shift[0] + r * a.cos(), shift[1] + r * a.sin(), z]);
-        }
-    }
-    let lo = |j: u32| 2 + (j % n);
-    let hi = |j: u32| 2 + n + (j % n);
-    for j in 0..n {
-        m.triangles.push([0, lo(j + 1), lo(j)]);
-        m.triangles.push([lo(j), lo(j + 1), hi(j + 1)]);
-        m.triangles.push([lo(j), hi(j + 1), hi(j)]);
-        m.triangles.push([1, hi(j), hi(j + 1)]);
-    }
-    m
-}
+#[allow(unused_imports)]
+pub use maamplan::default_job::star_head;
 
 /// A bumpy height-field patch `z = base + amp·sin(fx·x)·cos(fy·y)` over
 /// `[x0, x1] × [y0, y1]`, `n × n` quads.
@@ -187,4 +164,31 @@ pub fn surface_distance(scene: &Scene, q: &Query) -> f32 {
 /// A pose with the head axis `axis` at `tip`.
 pub fn pose(tip: V3, axis: V3) -> Pose {
     Pose::from_axis(tip, axis)
+}
+
+/// Compare `got` with `truth`: every disagreement must be a near-contact
+/// (surfaces closer than 1e-3 mm), and is listed. Returns their count.
+pub fn near_contacts_only(
+    scene: &Scene,
+    queries: &[Query],
+    truth: &[bool],
+    got: &[bool],
+    what: &str,
+) -> usize {
+    let mut near = Vec::new();
+    for (i, (t, g)) in truth.iter().zip(got).enumerate() {
+        if t != g {
+            let d = surface_distance(scene, &queries[i]);
+            assert!(
+                d < 1e-3,
+                "{what}: query {i} ({:?}): {g} vs {t}, surfaces {d} mm apart",
+                queries[i]
+            );
+            near.push((i, d));
+        }
+    }
+    if !near.is_empty() {
+        eprintln!("{what}: near-contact disagreements: {near:?}");
+    }
+    near.len()
 }
