@@ -20,5 +20,7 @@ pub mod collide;
 pub mod default_job;
 pub mod geometry;
 pub mod io;
+pub mod kinematics;
+pub mod plan;
 pub mod scene;
 pub mod toolpath;

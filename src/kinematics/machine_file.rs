@@ -1,0 +1,209 @@
+//! The machine file (TOML) and the default machine.
+//!
+//! The default models the data set's printer: configuration III with a B/C
+//! rotary table (the part tilts about Y and turns about Z under a fixed
+//! vertical nozzle), offsets 0 (the rotary axes meet at the origin of the
+//! part frame after placement), tip speeds [1, 25] mm/s as in paper 000.
+//! Axis speed limits: linear 100 mm/s (desktop gantry rapids); rotary
+//! 6 °/s — the speed of a small worm-gear rotary table (1 rpm), and the value
+//! that makes the unprocessed simple_curve toolpath miss the tip-speed range
+//! at the rate paper 000 reports before its optimisation (Fig. 10, 17.74 %;
+//! BENCHMARKS.md has the calibration).
+
+use super::{Configuration, Rotary};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// What can go wrong reading a machine file.
+#[derive(Debug, thiserror::Error)]
+pub enum MachineError {
+    /// Unreadable file.
+    #[error("{path}: cannot read the machine file ({source}): check the path", path = .path.display())]
+    Read {
+        /// The file.
+        path: std::path::PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// Invalid TOML or fields.
+    #[error("{path}:{line}: {msg}: fix the machine file (see README, Machine file)", path = .path.display())]
+    Parse {
+        /// The file.
+        path: std::path::PathBuf,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        msg: String,
+    },
+}
+
+/// Allowed range and speed of one axis.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisLimits {
+    /// Lowest position (mm or degrees).
+    pub min: f64,
+    /// Highest position (mm or degrees).
+    pub max: f64,
+    /// Top speed (mm/s or degrees/s).
+    pub speed: f64,
+}
+
+/// Extrusion parameters (paper 000, Eq. 1): `ΔE = k · H · W · |Δp|` with
+/// the layer height `H` measured per waypoint.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Extrusion {
+    /// Machine coefficient k (filament mm per mm³ of bead).
+    pub k: f64,
+    /// Bead width W (mm).
+    pub width: f64,
+    /// Layer height used where none can be measured (mm).
+    pub default_height: f64,
+    /// Nozzle temperature (°C) for the G-code header.
+    pub temperature: u32,
+}
+
+/// A 5-axis machine.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Machine {
+    /// Table I configuration.
+    pub configuration: Configuration,
+    /// Rotary pair.
+    pub rotary: Rotary,
+    /// Config I: distance from the tip to the tilt axis (mm).
+    #[serde(default)]
+    pub d: f64,
+    /// Config II: distance from the tip to where the axes meet (mm).
+    #[serde(default)]
+    pub h: f64,
+    /// Config II: distance from the tip to the C axis (mm).
+    #[serde(default)]
+    pub r: f64,
+    /// X axis.
+    pub x: AxisLimits,
+    /// Y axis.
+    pub y: AxisLimits,
+    /// Z axis.
+    pub z: AxisLimits,
+    /// Tilt axis (B or A), degrees.
+    pub tilt: AxisLimits,
+    /// C axis, degrees; the range applies to machines whose cables cannot
+    /// wind freely, otherwise leave it out (C turns without limit).
+    pub c: CAxis,
+    /// Tip speed range [v_min, v_max] the extruder can feed (mm/s).
+    pub tip_speed: [f64; 2],
+    /// Commanded print feed (mm/s).
+    pub feed: f64,
+    /// Extrusion.
+    pub extrusion: Extrusion,
+}
+
+/// The C axis: speed, and an optional range.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CAxis {
+    /// Top speed, degrees/s.
+    pub speed: f64,
+    /// Optional `[min, max]` in degrees.
+    #[serde(default)]
+    pub range: Option<[f64; 2]>,
+}
+
+impl Default for Machine {
+    fn default() -> Self {
+        Machine {
+            configuration: Configuration::III,
+            rotary: Rotary::BC,
+            d: 0.0,
+            h: 0.0,
+            r: 0.0,
+            x: AxisLimits { min: -200.0, max: 200.0, speed: 100.0 },
+            y: AxisLimits { min: -200.0, max: 200.0, speed: 100.0 },
+            z: AxisLimits { min: -50.0, max: 250.0, speed: 100.0 },
+            tilt: AxisLimits { min: -90.0, max: 90.0, speed: 6.0 },
+            c: CAxis { speed: 6.0, range: None },
+            tip_speed: [1.0, 25.0],
+            feed: 25.0,
+            extrusion: Extrusion { k: 0.55, width: 0.7, default_height: 0.5, temperature: 205 },
+        }
+    }
+}
+
+impl Machine {
+    /// Offsets `[d, h, r]`.
+    pub fn offsets(&self) -> [f64; 3] {
+        [self.d, self.h, self.r]
+    }
+
+    /// The default machine as TOML (what `plan --machine` reads).
+    pub fn to_toml(&self) -> String {
+        toml::to_string_pretty(self).expect("machine serialises")
+    }
+
+    fn validate(&self) -> Result<(), String> {
+        let speeds = [self.x.speed, self.y.speed, self.z.speed, self.tilt.speed, self.c.speed, self.feed];
+        if speeds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+            return Err("every axis speed and the feed must be positive".into());
+        }
+        let [lo, hi] = self.tip_speed;
+        if !(lo > 0.0 && hi > lo) {
+            return Err("tip_speed must be [v_min, v_max] with 0 < v_min < v_max".into());
+        }
+        for (name, a) in [("x", self.x), ("y", self.y), ("z", self.z), ("tilt", self.tilt)] {
+            if a.min >= a.max {
+                return Err(format!("{name}.min must be below {name}.max"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Read a machine file.
+pub fn load_machine(path: &Path) -> Result<Machine, MachineError> {
+    let text = std::fs::read_to_string(path).map_err(|source| MachineError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let m: Machine = toml::from_str(&text).map_err(|e| {
+        let line = e
+            .span()
+            .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+            .unwrap_or(1);
+        let at = text.lines().nth(line - 1).unwrap_or("").trim();
+        MachineError::Parse {
+            path: path.to_path_buf(),
+            line,
+            msg: format!("{} (in `{at}`)", e.message().trim()),
+        }
+    })?;
+    m.validate().map_err(|msg| MachineError::Parse {
+        path: path.to_path_buf(),
+        line: 1,
+        msg,
+    })?;
+    Ok(m)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_round_trips_through_toml() {
+        let m = Machine::default();
+        let back: Machine = toml::from_str(&m.to_toml()).unwrap();
+        assert_eq!(back, m);
+    }
+
+    #[test]
+    fn bad_field_names_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.toml");
+        let text = Machine::default().to_toml().replace("feed = 25.0", "feed = \"fast\"");
+        std::fs::write(&p, text).unwrap();
+        let e = load_machine(&p).unwrap_err().to_string();
+        assert!(e.contains("m.toml:") && e.contains("feed"), "{e}");
+    }
+}

@@ -1,0 +1,276 @@
+//! Machine kinematics (paper 000, Table I): the three 5-axis configurations,
+//! each with a B/C or A/C rotary pair; inverse kinematics with both
+//! solutions (Eqs. 3–4) and forward kinematics, and the head's pose in the
+//! part frame that follows from the axes.
+//!
+//! Conventions (radians inside, degrees at interfaces):
+//! - The part-frame nozzle direction of rotary angles `(t, c)` (t = B or A):
+//!   B/C: `n = (−sin B cos C, sin B sin C, cos B)`;
+//!   A/C: `n = (sin A sin C, sin A cos C, cos A)`.
+//!   Both follow from configuration III's Table I rows (the part turns by
+//!   `R_y(B)·R_z(C)` or `R_x(A)·R_z(C)` under a vertical nozzle), checked
+//!   against the data set's reference G-code; the other configurations
+//!   share them, so every machine maps a waypoint to the same two angle
+//!   pairs `(t, c)` and `(−t, c + π)`.
+//! - The head's rotation in the part frame is `R_z(−C)·R_y(−B)` (A/C:
+//!   `R_z(−C)·R_x(−A)`), so the second IK solution is the first turned by π
+//!   about the nozzle axis: one collision query for a head with that
+//!   symmetry, two otherwise.
+//! - Linear axes are Table I transcribed; configuration I's X/Y block is a
+//!   mirror as printed (a table axis moving the other way).
+
+pub mod machine_file;
+
+pub use machine_file::{load_machine, AxisLimits, Extrusion, Machine, MachineError};
+
+use crate::geometry::{Pose, V3};
+use serde::{Deserialize, Serialize};
+use std::f64::consts::PI;
+
+/// Table I's configurations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Configuration {
+    /// Rotating table (C) and tilting head (B or A).
+    I,
+    /// Rotating and tilting head; the part stays put.
+    II,
+    /// Rotating and tilting table under a fixed vertical nozzle (the data set's machine).
+    III,
+}
+
+/// Which rotary pair the machine has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Rotary {
+    /// Tilt about Y (B), turn about Z (C).
+    BC,
+    /// Tilt about X (A), turn about Z (C).
+    AC,
+}
+
+/// Machine axis values: linear (mm) and rotary (radians).
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct Axes {
+    /// X, Y, Z (mm).
+    pub xyz: [f64; 3],
+    /// The tilt axis, B or A (radians).
+    pub tilt: f64,
+    /// C (radians), unwound where a path says so.
+    pub c: f64,
+}
+
+/// Wrap an angle into (−π, π].
+pub fn wrap(a: f64) -> f64 {
+    let mut a = a % (2.0 * PI);
+    if a <= -PI {
+        a += 2.0 * PI;
+    } else if a > PI {
+        a -= 2.0 * PI;
+    }
+    a
+}
+
+/// The nozzle direction (part frame) for rotary angles `(tilt, c)`.
+pub fn orientation(rot: Rotary, tilt: f64, c: f64) -> [f64; 3] {
+    let (st, ct) = tilt.sin_cos();
+    let (sc, cc) = c.sin_cos();
+    match rot {
+        Rotary::BC => [-st * cc, st * sc, ct],
+        Rotary::AC => [st * sc, st * cc, ct],
+    }
+}
+
+/// Both IK solutions `(tilt, c)` for unit direction `n`: the first with
+/// `tilt ≤ 0`, the second `(−tilt, c + π)` wrapped. At the pole (`n = +z`)
+/// C is undetermined and returned as 0.
+pub fn ik_angles(rot: Rotary, n: [f64; 3]) -> [(f64, f64); 2] {
+    let t = n[2].clamp(-1.0, 1.0).acos();
+    // Solution with tilt = −t.
+    let c = match rot {
+        // n = (sin t cos C, −sin t sin C, cos t) for B = −t.
+        Rotary::BC => (-n[1]).atan2(n[0]),
+        // n = (−sin t sin C, −sin t cos C, cos t) for A = −t.
+        Rotary::AC => (-n[0]).atan2(-n[1]),
+    };
+    let c = if t == 0.0 { 0.0 } else { c };
+    [(-t, wrap(c)), (t, wrap(c + PI))]
+}
+
+fn rz(a: f64) -> [[f64; 3]; 3] {
+    let (s, c) = a.sin_cos();
+    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
+}
+fn ry(a: f64) -> [[f64; 3]; 3] {
+    let (s, c) = a.sin_cos();
+    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
+}
+fn rx(a: f64) -> [[f64; 3]; 3] {
+    let (s, c) = a.sin_cos();
+    [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
+}
+fn mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
+}
+fn apply(m: [[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
+    std::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
+}
+fn transpose(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
+    std::array::from_fn(|i| std::array::from_fn(|j| m[j][i]))
+}
+
+/// The head's rotation in the part frame (head frame → part frame).
+pub fn head_rotation(rot: Rotary, tilt: f64, c: f64) -> [[f64; 3]; 3] {
+    match rot {
+        Rotary::BC => mul(rz(-c), ry(-tilt)),
+        Rotary::AC => mul(rz(-c), rx(-tilt)),
+    }
+}
+
+/// The head pose in the part frame for tip `p` and rotary angles.
+pub fn head_pose(rot: Rotary, p: [f64; 3], tilt: f64, c: f64) -> Pose {
+    let m = head_rotation(rot, tilt, c);
+    let col = |j: usize| [m[0][j] as f32, m[1][j] as f32, m[2][j] as f32];
+    Pose {
+        cols: [col(0), col(1), col(2)],
+        tip: p.map(|x| x as f32),
+    }
+}
+
+/// Table I: machine X, Y, Z for part-frame tip `p` at rotary angles, with
+/// offsets `d` (config I: tip to tilt axis), `h` (config II: tip to the
+/// axes' intersection) and `r` (config II: tip to the C axis).
+pub fn linear_axes(cfg: Configuration, rot: Rotary, off: [f64; 3], p: [f64; 3], t: f64, c: f64) -> [f64; 3] {
+    let [d, h, r] = off;
+    let (st, ct) = t.sin_cos();
+    let (sc, cc) = c.sin_cos();
+    let [px, py, pz] = p;
+    match (cfg, rot) {
+        (Configuration::I, Rotary::BC) => [px * cc - py * sc + d * st, -px * sc - py * cc, pz - d * (1.0 - ct)],
+        (Configuration::I, Rotary::AC) => [-px * cc + py * sc, px * sc + py * cc - d * st, pz - d * (1.0 - ct)],
+        (Configuration::II, Rotary::BC) => [px + r * sc + h * cc * st, py - r * cc + h * sc * st + r, pz + h * ct - h],
+        (Configuration::II, Rotary::AC) => [px - r * cc + h * sc * st + r, py - r * sc - h * cc * st, pz + h * ct - h],
+        (Configuration::III, Rotary::BC) => apply(mul(ry(t), rz(c)), p),
+        (Configuration::III, Rotary::AC) => apply(mul(rx(t), rz(c)), p),
+    }
+}
+
+/// The inverse of [`linear_axes`]: the part-frame tip for machine X, Y, Z.
+pub fn tip_position(cfg: Configuration, rot: Rotary, off: [f64; 3], xyz: [f64; 3], t: f64, c: f64) -> [f64; 3] {
+    let [d, h, r] = off;
+    let (st, ct) = t.sin_cos();
+    let (sc, cc) = c.sin_cos();
+    let [x, y, z] = xyz;
+    match (cfg, rot) {
+        (Configuration::I, Rotary::BC) => {
+            // [x − d st, y] = [[cc, −sc], [−sc, −cc]] [px, py]; that matrix is its own inverse.
+            let (u, v) = (x - d * st, y);
+            [cc * u - sc * v, -sc * u - cc * v, z + d * (1.0 - ct)]
+        }
+        (Configuration::I, Rotary::AC) => {
+            // [x, y + d st] = [[−cc, sc], [sc, cc]] [px, py]; also an involution.
+            let (u, v) = (x, y + d * st);
+            [-cc * u + sc * v, sc * u + cc * v, z + d * (1.0 - ct)]
+        }
+        (Configuration::II, Rotary::BC) => [x - r * sc - h * cc * st, y + r * cc - h * sc * st - r, z - h * ct + h],
+        (Configuration::II, Rotary::AC) => [x + r * cc - h * sc * st - r, y + r * sc + h * cc * st, z - h * ct + h],
+        (Configuration::III, Rotary::BC) => apply(transpose(mul(ry(t), rz(c))), xyz),
+        (Configuration::III, Rotary::AC) => apply(transpose(mul(rx(t), rz(c))), xyz),
+    }
+}
+
+/// Inverse kinematics of one waypoint: both machine solutions.
+pub fn inverse(m: &Machine, p: V3, n: V3) -> [Axes; 2] {
+    let p = p.map(|x| x as f64);
+    let l = (n[0] as f64).hypot(n[1] as f64).hypot(n[2] as f64);
+    let n = n.map(|x| x as f64 / l);
+    ik_angles(m.rotary, n).map(|(t, c)| Axes {
+        xyz: linear_axes(m.configuration, m.rotary, m.offsets(), p, t, c),
+        tilt: t,
+        c,
+    })
+}
+
+/// Forward kinematics: the part-frame tip and nozzle direction of `a`.
+pub fn forward(m: &Machine, a: &Axes) -> ([f64; 3], [f64; 3]) {
+    (
+        tip_position(m.configuration, m.rotary, m.offsets(), a.xyz, a.tilt, a.c),
+        orientation(m.rotary, a.tilt, a.c),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn machines() -> Vec<Machine> {
+        let mut v = Vec::new();
+        for cfg in [Configuration::I, Configuration::II, Configuration::III] {
+            for rot in [Rotary::BC, Rotary::AC] {
+                let mut m = Machine::default();
+                m.configuration = cfg;
+                m.rotary = rot;
+                m.d = 31.0;
+                m.h = 47.0;
+                m.r = 12.5;
+                v.push(m);
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn ik_fk_round_trips_all_variants_including_near_singular() {
+        let dirs: Vec<[f64; 3]> = vec![
+            [0.3, -0.4, 0.8],
+            [-0.9, 0.1, 0.2],
+            [0.0, 0.0, 1.0],
+            [1e-7, -2e-7, 1.0],
+            [0.01, 0.002, 0.9999],
+            [-0.5, -0.5, -0.2],
+            [0.0, 1.0, 0.0],
+        ];
+        for m in machines() {
+            for d in &dirs {
+                let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let n = d.map(|x| (x / l) as f32);
+                let p = [12.5f32, -7.25, 43.0];
+                let sols = inverse(&m, p, n);
+                for a in &sols {
+                    let (q, nn) = forward(&m, a);
+                    for k in 0..3 {
+                        assert!((q[k] - p[k] as f64).abs() < 1e-9, "{:?} {:?}: tip {q:?}", m.configuration, m.rotary);
+                        assert!((nn[k] - n[k] as f64).abs() < 1e-6, "{:?} {:?}: dir {nn:?} vs {n:?}", m.configuration, m.rotary);
+                    }
+                    // The head pose's axis is the nozzle direction.
+                    let pose = head_pose(m.rotary, q, a.tilt, a.c);
+                    for k in 0..3 {
+                        assert!((pose.cols[2][k] - n[k]).abs() < 1e-5);
+                    }
+                }
+                // The two solutions differ by a half-turn about the axis.
+                let r0 = head_rotation(m.rotary, sols[0].tilt, sols[0].c);
+                let r1 = head_rotation(m.rotary, sols[1].tilt, sols[1].c);
+                for i in 0..3 {
+                    assert!((r0[i][0] + r1[i][0]).abs() < 1e-9 && (r0[i][1] + r1[i][1]).abs() < 1e-9);
+                    assert!((r0[i][2] - r1[i][2]).abs() < 1e-9);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn config_iii_bc_matches_the_reference_gcode() {
+        // simple_curve waypoint 0 of layer 0 and the reference's G1 for it
+        // (B 0, C 0): machine XYZ = part position.
+        let mut m = Machine::default();
+        m.configuration = Configuration::III;
+        let a = Axes { xyz: [0.0; 3], tilt: 0.0, c: 0.0 };
+        let p = [1.46518, -14.9918, 40.736649];
+        let x = linear_axes(m.configuration, m.rotary, m.offsets(), p, a.tilt, a.c);
+        assert!((x[0] - 1.465).abs() < 1e-3 && (x[1] + 14.992).abs() < 1e-3 && (x[2] - 40.737).abs() < 1e-3);
+        // A tilted one: B = 8.705°, C = 1.347° maps the waypoint to the
+        // reference's X −5.505, Y 5.981, Z 43.811 (within its smoothing).
+        let p = [-11.9286, 6.26282, 1.97323 + 40.5];
+        let x = linear_axes(Configuration::III, Rotary::BC, [0.0; 3], p, 8.705f64.to_radians(), 1.347f64.to_radians());
+        assert!((x[0] + 5.505).abs() < 0.05 && (x[1] - 5.981).abs() < 0.05 && (x[2] - 43.811).abs() < 0.05, "{x:?}");
+    }
+}
