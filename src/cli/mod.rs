@@ -4,6 +4,7 @@
 mod bench;
 mod check;
 mod info;
+mod plan;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -35,6 +36,8 @@ enum Command {
     Check(check::CheckArgs),
     /// Measure poses per second of several backends on the same queries.
     Bench(bench::BenchArgs),
+    /// Plan machine motion: collision-free, singularity-aware, within the tip-speed range.
+    Plan(plan::PlanArgs),
     /// List GPU adapters, their kind (hardware / software) and limits.
     Info,
 }
@@ -243,6 +246,7 @@ pub fn run(cli: Cli) -> Result<()> {
     match cli.command {
         Command::Check(a) => check::run(a),
         Command::Bench(a) => bench::run(a),
+        Command::Plan(a) => plan::run(a),
         Command::Info => info::run(),
     }
 }

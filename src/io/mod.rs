@@ -3,8 +3,10 @@
 //! Every input problem is an [`InputError`] whose message is one line naming
 //! the file, the line (or facet) and what to do about it.
 
+pub mod gcode;
 pub mod mesh;
 pub mod output;
+pub mod plan_csv;
 pub mod toolpath;
 
 use std::path::{Path, PathBuf};

@@ -5,10 +5,11 @@
 //! vertical nozzle), offsets 0 (the rotary axes meet at the origin of the
 //! part frame after placement), tip speeds [1, 25] mm/s as in paper 000.
 //! Axis speed limits: linear 100 mm/s (desktop gantry rapids); rotary
-//! 6 °/s — the speed of a small worm-gear rotary table (1 rpm), and the value
-//! that makes the unprocessed simple_curve toolpath miss the tip-speed range
-//! at the rate paper 000 reports before its optimisation (Fig. 10, 17.74 %;
-//! BENCHMARKS.md has the calibration).
+//! 14 °/s (2.3 rpm), in the range of the small worm-gear rotary/tilt tables
+//! such printers use (a few rpm), and the value at which the unprocessed
+//! simple_curve toolpath misses the tip-speed range as often as paper 000
+//! reports before its optimisation (Fig. 10, 17.74 %; BENCHMARKS.md has the
+//! calibration curve).
 
 use super::{Configuration, Rotary};
 use serde::{Deserialize, Serialize};
@@ -122,8 +123,8 @@ impl Default for Machine {
             x: AxisLimits { min: -200.0, max: 200.0, speed: 100.0 },
             y: AxisLimits { min: -200.0, max: 200.0, speed: 100.0 },
             z: AxisLimits { min: -50.0, max: 250.0, speed: 100.0 },
-            tilt: AxisLimits { min: -90.0, max: 90.0, speed: 6.0 },
-            c: CAxis { speed: 6.0, range: None },
+            tilt: AxisLimits { min: -90.0, max: 90.0, speed: 14.0 },
+            c: CAxis { speed: 14.0, range: None },
             tip_speed: [1.0, 25.0],
             feed: 25.0,
             extrusion: Extrusion { k: 0.55, width: 0.7, default_height: 0.5, temperature: 205 },
