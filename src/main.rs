@@ -34,7 +34,10 @@ fn main() -> ExitCode {
 /// 2 when the user can fix it (inputs, arguments), 1 otherwise.
 fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
-        if cause.is::<InputError>() || cause.is::<cli::UsageError>() || cause.is::<maamplan::kinematics::MachineError>() {
+        if cause.is::<InputError>()
+            || cause.is::<cli::UsageError>()
+            || cause.is::<maamplan::kinematics::MachineError>()
+        {
             return 2;
         }
         if let Some(s) = cause.downcast_ref::<SceneError>() {

@@ -1,10 +1,12 @@
 //! `maamplan check`: every waypoint in its own orientation, one verdict each,
 //! counted per layer.
 
-use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs};
+use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs, UsageError};
 use anyhow::Result;
 use clap::Args;
 use maamplan::geometry::Pose;
+use maamplan::io::plan_csv::read_plan_axes;
+use maamplan::kinematics::{forward, head_pose, load_machine, Axes, Machine};
 use maamplan::scene::Query;
 use serde_json::json;
 use std::path::PathBuf;
@@ -23,8 +25,20 @@ pub struct CheckArgs {
     json: Option<PathBuf>,
     /// Stress test: rotate every nozzle direction by DEG about the x axis
     /// before checking (as `shared/tools/fcl_check.py --tilt`).
-    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    #[arg(
+        long,
+        value_name = "DEG",
+        allow_hyphen_values = true,
+        conflicts_with = "plan"
+    )]
     tilt: Option<f32>,
+    /// Check a written plan instead: the head poses that `plan.csv`'s machine
+    /// axes give (forward kinematics of `--machine`), one row per waypoint.
+    #[arg(long, value_name = "PLAN_CSV")]
+    plan: Option<PathBuf>,
+    /// Machine file for `--plan` [default: the default machine].
+    #[arg(long, requires = "plan")]
+    machine: Option<PathBuf>,
 }
 
 /// Run `check`.
@@ -33,9 +47,42 @@ pub fn run(a: CheckArgs) -> Result<()> {
     let scene = &loaded.scene;
     let backend = a.backend.build(scene)?;
     let tilted: Vec<Query>;
-    let queries = match a.tilt {
-        None => &scene.waypoint_queries,
-        Some(deg) => {
+    let queries = match (a.tilt, &a.plan) {
+        (_, Some(csv)) => {
+            let machine = match &a.machine {
+                Some(p) => load_machine(p)?,
+                None => Machine::default(),
+            };
+            let rows = read_plan_axes(csv)?;
+            if rows.len() != scene.waypoint_queries.len() {
+                return Err(UsageError(format!(
+                    "{}: {} rows but the toolpath has {} waypoints: check the plan of this toolpath",
+                    csv.display(),
+                    rows.len(),
+                    scene.waypoint_queries.len()
+                ))
+                .into());
+            }
+            tilted = rows
+                .iter()
+                .zip(&scene.waypoint_queries)
+                .map(|(r, q)| {
+                    let axes = Axes {
+                        xyz: [r[0], r[1], r[2]],
+                        tilt: r[3].to_radians(),
+                        c: r[4].to_radians(),
+                    };
+                    let (p, _) = forward(&machine, &axes);
+                    Query {
+                        pose: head_pose(machine.rotary, p, axes.tilt, axes.c),
+                        cutoff: q.cutoff,
+                    }
+                })
+                .collect();
+            &tilted
+        }
+        (None, None) => &scene.waypoint_queries,
+        (Some(deg), None) => {
             let (s, c) = deg.to_radians().sin_cos();
             tilted = scene
                 .waypoint_queries

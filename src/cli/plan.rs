@@ -84,7 +84,12 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let Some(out) = a.out.clone() else {
         return Err(UsageError("plan needs -o DIR (the output folder)".into()).into());
     };
-    for (name, v, lo, hi) in [("--alpha", a.alpha, 0.0, 45.0), ("--beta", a.beta, 1.0, 90.0), ("--cone", a.cone, 0.1, 90.0), ("--edge-step", a.edge_step, 0.01, 10.0)] {
+    for (name, v, lo, hi) in [
+        ("--alpha", a.alpha, 0.0, 45.0),
+        ("--beta", a.beta, 1.0, 90.0),
+        ("--cone", a.cone, 0.1, 90.0),
+        ("--edge-step", a.edge_step, 0.01, 10.0),
+    ] {
         if !(v >= lo && v <= hi) {
             return Err(UsageError(format!("{name} must be between {lo} and {hi}")).into());
         }
@@ -102,20 +107,42 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let opts = PlanOptions {
         smoothing: match a.smoothing {
             SmoothingKind::Laplacian => Smoothing::Laplacian { passes: a.passes },
-            SmoothingKind::MovingAverage => Smoothing::MovingAverage { window: a.window, cone_deg: a.cone },
-            SmoothingKind::Median => Smoothing::Median { window: a.window, cone_deg: a.cone },
+            SmoothingKind::MovingAverage => Smoothing::MovingAverage {
+                window: a.window,
+                cone_deg: a.cone,
+            },
+            SmoothingKind::Median => Smoothing::Median {
+                window: a.window,
+                cone_deg: a.cone,
+            },
             SmoothingKind::None => Smoothing::None,
         },
         alpha: a.alpha.to_radians(),
         beta: a.beta.to_radians(),
-        sampling: if a.rings { Sampling::Rings } else { Sampling::Random { k: a.variants.max(1) } },
+        sampling: if a.rings {
+            Sampling::Rings
+        } else {
+            Sampling::Random {
+                k: a.variants.max(1),
+            }
+        },
         edge_step: a.edge_step,
         jump: 5.0,
     };
     let pb = indicatif::ProgressBar::new_spinner();
-    pb.set_style(indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("static template"));
+    pb.set_style(
+        indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
+            .expect("static template"),
+    );
     pb.enable_steady_tick(std::time::Duration::from_millis(120));
-    let p = plan(scene, &loaded.toolpath, &machine, backend.as_ref(), &opts, &mut |stage| pb.set_message(stage.to_string()))?;
+    let p = plan(
+        scene,
+        &loaded.toolpath,
+        &machine,
+        backend.as_ref(),
+        &opts,
+        &mut |stage| pb.set_message(stage.to_string()),
+    )?;
     pb.finish_and_clear();
 
     let t1 = Instant::now();
@@ -139,10 +166,16 @@ pub fn run(a: PlanArgs) -> Result<()> {
         "stages": stages,
         "command": std::env::args().collect::<Vec<_>>().join(" "),
     });
-    std::fs::create_dir_all(&out).map_err(|e| UsageError(format!("{}: cannot create the output folder ({e})", out.display())))?;
+    std::fs::create_dir_all(&out).map_err(|e| {
+        UsageError(format!(
+            "{}: cannot create the output folder ({e})",
+            out.display()
+        ))
+    })?;
     let write = |name: &str, bytes: &[u8]| -> Result<()> {
         let path = out.join(name);
-        write_atomic(&path, bytes).map_err(|e| UsageError(format!("{}: cannot write ({e})", path.display())).into())
+        write_atomic(&path, bytes)
+            .map_err(|e| UsageError(format!("{}: cannot write ({e})", path.display())).into())
     };
     write("toolpath.gcode", gcode.as_bytes())?;
     write("plan.csv", csv.as_bytes())?;
@@ -150,15 +183,54 @@ pub fn run(a: PlanArgs) -> Result<()> {
 
     println!("{:<22} {:>12} {:>12}", "", "input", "plan");
     let rows: [(&str, String, String); 9] = [
-        ("waypoints", p.input.waypoints.to_string(), p.plan.waypoints.to_string()),
-        ("residual collisions", p.input.residual_collisions.to_string(), p.plan.residual_collisions.to_string()),
-        ("colliding edges", p.input.colliding_edges.to_string(), p.plan.colliding_edges.to_string()),
-        ("speed violations %", format!("{:.2}", p.input.speed_violation_pct), format!("{:.2}", p.plan.speed_violation_pct)),
-        ("J (deg)", format!("{:.0}", p.input.j_deg), format!("{:.0}", p.plan.j_deg)),
-        ("max step (deg)", format!("{:.1}", p.input.max_step_deg), format!("{:.1}", p.plan.max_step_deg)),
-        ("singular waypoints", p.input.singular_waypoints.to_string(), p.plan.singular_waypoints.to_string()),
-        ("breaks", p.input.breaks.to_string(), p.plan.breaks.to_string()),
-        ("orientation change", "0".into(), format!("mean {:.1}°, max {:.1}°", p.plan.mean_deviation_deg, p.plan.max_deviation_deg)),
+        (
+            "waypoints",
+            p.input.waypoints.to_string(),
+            p.plan.waypoints.to_string(),
+        ),
+        (
+            "residual collisions",
+            p.input.residual_collisions.to_string(),
+            p.plan.residual_collisions.to_string(),
+        ),
+        (
+            "colliding edges",
+            p.input.colliding_edges.to_string(),
+            p.plan.colliding_edges.to_string(),
+        ),
+        (
+            "speed violations %",
+            format!("{:.2}", p.input.speed_violation_pct),
+            format!("{:.2}", p.plan.speed_violation_pct),
+        ),
+        (
+            "J (deg)",
+            format!("{:.0}", p.input.j_deg),
+            format!("{:.0}", p.plan.j_deg),
+        ),
+        (
+            "max step (deg)",
+            format!("{:.1}", p.input.max_step_deg),
+            format!("{:.1}", p.plan.max_step_deg),
+        ),
+        (
+            "singular waypoints",
+            p.input.singular_waypoints.to_string(),
+            p.plan.singular_waypoints.to_string(),
+        ),
+        (
+            "breaks",
+            p.input.breaks.to_string(),
+            p.plan.breaks.to_string(),
+        ),
+        (
+            "orientation change",
+            "0".into(),
+            format!(
+                "mean {:.1}°, max {:.1}°",
+                p.plan.mean_deviation_deg, p.plan.max_deviation_deg
+            ),
+        ),
     ];
     for (k, i, pl) in rows {
         println!("{k:<22} {i:>12} {pl:>12}");

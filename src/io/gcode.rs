@@ -18,17 +18,32 @@ pub fn write_gcode(m: &Machine, waypoints: &[PlannedWaypoint]) -> String {
     let t = m.extrusion.temperature;
     let mut g = String::with_capacity(waypoints.len() * 64 + 1024);
     let deg = |r: f64| r.to_degrees();
-    let _ = writeln!(g, "G90\nM104 S{t} T1\nG28 X0.000 Y0.000 Z230.000 {tl}0.000 C0.000 F5250\nM109 S{t} T1");
+    let _ = writeln!(
+        g,
+        "G90\nM104 S{t} T1\nG28 X0.000 Y0.000 Z230.000 {tl}0.000 C0.000 F5250\nM109 S{t} T1"
+    );
     let mut z_run = f64::NEG_INFINITY;
     for (i, w) in waypoints.iter().enumerate() {
         let a = &w.axes;
         let [x, y, z] = a.xyz;
-        let travel = format!("G0 X{x:.3} Y{y:.3} {tl}{:.3} C{:.3} F5250", deg(a.tilt), deg(a.c));
+        let travel = format!(
+            "G0 X{x:.3} Y{y:.3} {tl}{:.3} C{:.3} F5250",
+            deg(a.tilt),
+            deg(a.c)
+        );
         let new_layer = i == 0 || waypoints[i - 1].layer != w.layer;
         if i == 0 {
             // First layer: approach above its highest point, prime.
-            let zmax = waypoints.iter().take_while(|v| v.layer == w.layer).map(|v| v.axes.xyz[2]).fold(z, f64::max);
-            let _ = writeln!(g, "{travel}\nG0 Z{:.3} F4750\nG92 E0\nG1 E12.000 F4550\nG92 E0\nG1 F1500", zmax + Z_APPROACH);
+            let zmax = waypoints
+                .iter()
+                .take_while(|v| v.layer == w.layer)
+                .map(|v| v.axes.xyz[2])
+                .fold(z, f64::max);
+            let _ = writeln!(
+                g,
+                "{travel}\nG0 Z{:.3} F4750\nG92 E0\nG1 E12.000 F4550\nG92 E0\nG1 F1500",
+                zmax + Z_APPROACH
+            );
         } else if new_layer {
             z_run = z_run.max(z);
             let _ = writeln!(
@@ -50,9 +65,18 @@ pub fn write_gcode(m: &Machine, waypoints: &[PlannedWaypoint]) -> String {
             );
         }
         z_run = z_run.max(z);
-        let _ = writeln!(g, "G1 X{x:.3} Y{y:.3} Z{z:.3} {tl}{:.3} C{:.3} E{:.3}", deg(a.tilt), deg(a.c), w.e);
+        let _ = writeln!(
+            g,
+            "G1 X{x:.3} Y{y:.3} Z{z:.3} {tl}{:.3} C{:.3} E{:.3}",
+            deg(a.tilt),
+            deg(a.c),
+            w.e
+        );
     }
-    let _ = writeln!(g, "G92 E0\nG0 E-6.000 F5250\nG0 Z{Z_HOME:.3} F4750\nG0 X0 Y0 {tl}0 C0 F5250\nM30");
+    let _ = writeln!(
+        g,
+        "G92 E0\nG0 E-6.000 F5250\nG0 Z{Z_HOME:.3} F4750\nG0 X0 Y0 {tl}0 C0 F5250\nM30"
+    );
     g
 }
 

@@ -11,7 +11,9 @@ use std::path::Path;
 /// The CSV text.
 pub fn write_plan_csv(m: &Machine, w: &[PlannedWaypoint]) -> String {
     let tl = if m.rotary == Rotary::AC { "A" } else { "B" };
-    let mut s = format!("index,layer,px,py,pz,nx,ny,nz,X,Y,Z,{tl},C,E,was_colliding,singular,break,residual\n");
+    let mut s = format!(
+        "index,layer,px,py,pz,nx,ny,nz,X,Y,Z,{tl},C,E,was_colliding,singular,break,residual\n"
+    );
     for (i, p) in w.iter().enumerate() {
         let a = &p.axes;
         let _ = writeln!(
@@ -58,9 +60,20 @@ pub fn read_plan_axes(path: &Path) -> Result<Vec<[f64; 5]>, InputError> {
         let f: Vec<&str> = l.split(',').collect();
         let mut v = [0.0; 5];
         for (k, &c) in idx.iter().enumerate() {
-            v[k] = f.get(c).and_then(|x| x.parse().ok()).filter(|x: &f64| x.is_finite()).ok_or_else(|| {
-                InputError::at(path, i + 2, format!("column {} is missing or not a finite number: fix this row", header[c]))
-            })?;
+            v[k] = f
+                .get(c)
+                .and_then(|x| x.parse().ok())
+                .filter(|x: &f64| x.is_finite())
+                .ok_or_else(|| {
+                    InputError::at(
+                        path,
+                        i + 2,
+                        format!(
+                            "column {} is missing or not a finite number: fix this row",
+                            header[c]
+                        ),
+                    )
+                })?;
         }
         out.push(v);
     }

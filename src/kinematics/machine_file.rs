@@ -120,14 +120,38 @@ impl Default for Machine {
             d: 0.0,
             h: 0.0,
             r: 0.0,
-            x: AxisLimits { min: -200.0, max: 200.0, speed: 100.0 },
-            y: AxisLimits { min: -200.0, max: 200.0, speed: 100.0 },
-            z: AxisLimits { min: -50.0, max: 250.0, speed: 100.0 },
-            tilt: AxisLimits { min: -90.0, max: 90.0, speed: 14.0 },
-            c: CAxis { speed: 14.0, range: None },
+            x: AxisLimits {
+                min: -200.0,
+                max: 200.0,
+                speed: 100.0,
+            },
+            y: AxisLimits {
+                min: -200.0,
+                max: 200.0,
+                speed: 100.0,
+            },
+            z: AxisLimits {
+                min: -50.0,
+                max: 250.0,
+                speed: 100.0,
+            },
+            tilt: AxisLimits {
+                min: -90.0,
+                max: 90.0,
+                speed: 14.0,
+            },
+            c: CAxis {
+                speed: 14.0,
+                range: None,
+            },
             tip_speed: [1.0, 25.0],
             feed: 25.0,
-            extrusion: Extrusion { k: 0.55, width: 0.7, default_height: 0.5, temperature: 205 },
+            extrusion: Extrusion {
+                k: 0.55,
+                width: 0.7,
+                default_height: 0.5,
+                temperature: 205,
+            },
         }
     }
 }
@@ -144,7 +168,14 @@ impl Machine {
     }
 
     fn validate(&self) -> Result<(), String> {
-        let speeds = [self.x.speed, self.y.speed, self.z.speed, self.tilt.speed, self.c.speed, self.feed];
+        let speeds = [
+            self.x.speed,
+            self.y.speed,
+            self.z.speed,
+            self.tilt.speed,
+            self.c.speed,
+            self.feed,
+        ];
         if speeds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return Err("every axis speed and the feed must be positive".into());
         }
@@ -152,7 +183,12 @@ impl Machine {
         if !(lo > 0.0 && hi > lo) {
             return Err("tip_speed must be [v_min, v_max] with 0 < v_min < v_max".into());
         }
-        for (name, a) in [("x", self.x), ("y", self.y), ("z", self.z), ("tilt", self.tilt)] {
+        for (name, a) in [
+            ("x", self.x),
+            ("y", self.y),
+            ("z", self.z),
+            ("tilt", self.tilt),
+        ] {
             if a.min >= a.max {
                 return Err(format!("{name}.min must be below {name}.max"));
             }
@@ -202,7 +238,9 @@ mod tests {
     fn bad_field_names_the_line() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("m.toml");
-        let text = Machine::default().to_toml().replace("feed = 25.0", "feed = \"fast\"");
+        let text = Machine::default()
+            .to_toml()
+            .replace("feed = 25.0", "feed = \"fast\"");
         std::fs::write(&p, text).unwrap();
         let e = load_machine(&p).unwrap_err().to_string();
         assert!(e.contains("m.toml:") && e.contains("feed"), "{e}");

@@ -138,23 +138,53 @@ pub fn head_pose(rot: Rotary, p: [f64; 3], tilt: f64, c: f64) -> Pose {
 /// Table I: machine X, Y, Z for part-frame tip `p` at rotary angles, with
 /// offsets `d` (config I: tip to tilt axis), `h` (config II: tip to the
 /// axes' intersection) and `r` (config II: tip to the C axis).
-pub fn linear_axes(cfg: Configuration, rot: Rotary, off: [f64; 3], p: [f64; 3], t: f64, c: f64) -> [f64; 3] {
+pub fn linear_axes(
+    cfg: Configuration,
+    rot: Rotary,
+    off: [f64; 3],
+    p: [f64; 3],
+    t: f64,
+    c: f64,
+) -> [f64; 3] {
     let [d, h, r] = off;
     let (st, ct) = t.sin_cos();
     let (sc, cc) = c.sin_cos();
     let [px, py, pz] = p;
     match (cfg, rot) {
-        (Configuration::I, Rotary::BC) => [px * cc - py * sc + d * st, -px * sc - py * cc, pz - d * (1.0 - ct)],
-        (Configuration::I, Rotary::AC) => [-px * cc + py * sc, px * sc + py * cc - d * st, pz - d * (1.0 - ct)],
-        (Configuration::II, Rotary::BC) => [px + r * sc + h * cc * st, py - r * cc + h * sc * st + r, pz + h * ct - h],
-        (Configuration::II, Rotary::AC) => [px - r * cc + h * sc * st + r, py - r * sc - h * cc * st, pz + h * ct - h],
+        (Configuration::I, Rotary::BC) => [
+            px * cc - py * sc + d * st,
+            -px * sc - py * cc,
+            pz - d * (1.0 - ct),
+        ],
+        (Configuration::I, Rotary::AC) => [
+            -px * cc + py * sc,
+            px * sc + py * cc - d * st,
+            pz - d * (1.0 - ct),
+        ],
+        (Configuration::II, Rotary::BC) => [
+            px + r * sc + h * cc * st,
+            py - r * cc + h * sc * st + r,
+            pz + h * ct - h,
+        ],
+        (Configuration::II, Rotary::AC) => [
+            px - r * cc + h * sc * st + r,
+            py - r * sc - h * cc * st,
+            pz + h * ct - h,
+        ],
         (Configuration::III, Rotary::BC) => apply(mul(ry(t), rz(c)), p),
         (Configuration::III, Rotary::AC) => apply(mul(rx(t), rz(c)), p),
     }
 }
 
 /// The inverse of [`linear_axes`]: the part-frame tip for machine X, Y, Z.
-pub fn tip_position(cfg: Configuration, rot: Rotary, off: [f64; 3], xyz: [f64; 3], t: f64, c: f64) -> [f64; 3] {
+pub fn tip_position(
+    cfg: Configuration,
+    rot: Rotary,
+    off: [f64; 3],
+    xyz: [f64; 3],
+    t: f64,
+    c: f64,
+) -> [f64; 3] {
     let [d, h, r] = off;
     let (st, ct) = t.sin_cos();
     let (sc, cc) = c.sin_cos();
@@ -170,8 +200,16 @@ pub fn tip_position(cfg: Configuration, rot: Rotary, off: [f64; 3], xyz: [f64; 3
             let (u, v) = (x, y + d * st);
             [-cc * u + sc * v, sc * u + cc * v, z + d * (1.0 - ct)]
         }
-        (Configuration::II, Rotary::BC) => [x - r * sc - h * cc * st, y + r * cc - h * sc * st - r, z - h * ct + h],
-        (Configuration::II, Rotary::AC) => [x + r * cc - h * sc * st - r, y + r * sc + h * cc * st, z - h * ct + h],
+        (Configuration::II, Rotary::BC) => [
+            x - r * sc - h * cc * st,
+            y + r * cc - h * sc * st - r,
+            z - h * ct + h,
+        ],
+        (Configuration::II, Rotary::AC) => [
+            x + r * cc - h * sc * st - r,
+            y + r * sc + h * cc * st,
+            z - h * ct + h,
+        ],
         (Configuration::III, Rotary::BC) => apply(transpose(mul(ry(t), rz(c))), xyz),
         (Configuration::III, Rotary::AC) => apply(transpose(mul(rx(t), rz(c))), xyz),
     }
@@ -198,6 +236,7 @@ pub fn forward(m: &Machine, a: &Axes) -> ([f64; 3], [f64; 3]) {
 }
 
 #[cfg(test)]
+#[allow(clippy::needless_range_loop)]
 mod tests {
     use super::*;
 
@@ -205,13 +244,14 @@ mod tests {
         let mut v = Vec::new();
         for cfg in [Configuration::I, Configuration::II, Configuration::III] {
             for rot in [Rotary::BC, Rotary::AC] {
-                let mut m = Machine::default();
-                m.configuration = cfg;
-                m.rotary = rot;
-                m.d = 31.0;
-                m.h = 47.0;
-                m.r = 12.5;
-                v.push(m);
+                v.push(Machine {
+                    configuration: cfg,
+                    rotary: rot,
+                    d: 31.0,
+                    h: 47.0,
+                    r: 12.5,
+                    ..Machine::default()
+                });
             }
         }
         v
@@ -237,8 +277,18 @@ mod tests {
                 for a in &sols {
                     let (q, nn) = forward(&m, a);
                     for k in 0..3 {
-                        assert!((q[k] - p[k] as f64).abs() < 1e-9, "{:?} {:?}: tip {q:?}", m.configuration, m.rotary);
-                        assert!((nn[k] - n[k] as f64).abs() < 1e-6, "{:?} {:?}: dir {nn:?} vs {n:?}", m.configuration, m.rotary);
+                        assert!(
+                            (q[k] - p[k] as f64).abs() < 1e-9,
+                            "{:?} {:?}: tip {q:?}",
+                            m.configuration,
+                            m.rotary
+                        );
+                        assert!(
+                            (nn[k] - n[k] as f64).abs() < 1e-6,
+                            "{:?} {:?}: dir {nn:?} vs {n:?}",
+                            m.configuration,
+                            m.rotary
+                        );
                     }
                     // The head pose's axis is the nozzle direction.
                     let pose = head_pose(m.rotary, q, a.tilt, a.c);
@@ -250,7 +300,9 @@ mod tests {
                 let r0 = head_rotation(m.rotary, sols[0].tilt, sols[0].c);
                 let r1 = head_rotation(m.rotary, sols[1].tilt, sols[1].c);
                 for i in 0..3 {
-                    assert!((r0[i][0] + r1[i][0]).abs() < 1e-9 && (r0[i][1] + r1[i][1]).abs() < 1e-9);
+                    assert!(
+                        (r0[i][0] + r1[i][0]).abs() < 1e-9 && (r0[i][1] + r1[i][1]).abs() < 1e-9
+                    );
                     assert!((r0[i][2] - r1[i][2]).abs() < 1e-9);
                 }
             }
@@ -261,16 +313,35 @@ mod tests {
     fn config_iii_bc_matches_the_reference_gcode() {
         // simple_curve waypoint 0 of layer 0 and the reference's G1 for it
         // (B 0, C 0): machine XYZ = part position.
-        let mut m = Machine::default();
-        m.configuration = Configuration::III;
-        let a = Axes { xyz: [0.0; 3], tilt: 0.0, c: 0.0 };
+        let m = Machine::default();
+        let a = Axes {
+            xyz: [0.0; 3],
+            tilt: 0.0,
+            c: 0.0,
+        };
         let p = [1.46518, -14.9918, 40.736649];
         let x = linear_axes(m.configuration, m.rotary, m.offsets(), p, a.tilt, a.c);
-        assert!((x[0] - 1.465).abs() < 1e-3 && (x[1] + 14.992).abs() < 1e-3 && (x[2] - 40.737).abs() < 1e-3);
+        assert!(
+            (x[0] - 1.465).abs() < 1e-3
+                && (x[1] + 14.992).abs() < 1e-3
+                && (x[2] - 40.737).abs() < 1e-3
+        );
         // A tilted one: B = 8.705°, C = 1.347° maps the waypoint to the
         // reference's X −5.505, Y 5.981, Z 43.811 (within its smoothing).
         let p = [-11.9286, 6.26282, 1.97323 + 40.5];
-        let x = linear_axes(Configuration::III, Rotary::BC, [0.0; 3], p, 8.705f64.to_radians(), 1.347f64.to_radians());
-        assert!((x[0] + 5.505).abs() < 0.05 && (x[1] - 5.981).abs() < 0.05 && (x[2] - 43.811).abs() < 0.05, "{x:?}");
+        let x = linear_axes(
+            Configuration::III,
+            Rotary::BC,
+            [0.0; 3],
+            p,
+            8.705f64.to_radians(),
+            1.347f64.to_radians(),
+        );
+        assert!(
+            (x[0] + 5.505).abs() < 0.05
+                && (x[1] - 5.981).abs() < 0.05
+                && (x[2] - 43.811).abs() < 0.05,
+            "{x:?}"
+        );
     }
 }

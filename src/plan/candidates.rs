@@ -32,13 +32,25 @@ fn unit(h: u64) -> f64 {
 
 /// The direction at polar angle `theta` and azimuth `phi` around `n`.
 pub fn around(n: N, theta: f64, phi: f64) -> N {
-    let helper = if n[0].abs() < 0.9 { [1.0, 0.0, 0.0] } else { [0.0, 1.0, 0.0] };
+    let helper = if n[0].abs() < 0.9 {
+        [1.0, 0.0, 0.0]
+    } else {
+        [0.0, 1.0, 0.0]
+    };
     let u = {
-        let c = [n[1] * helper[2] - n[2] * helper[1], n[2] * helper[0] - n[0] * helper[2], n[0] * helper[1] - n[1] * helper[0]];
+        let c = [
+            n[1] * helper[2] - n[2] * helper[1],
+            n[2] * helper[0] - n[0] * helper[2],
+            n[0] * helper[1] - n[1] * helper[0],
+        ];
         let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
         [c[0] / l, c[1] / l, c[2] / l]
     };
-    let v = [n[1] * u[2] - n[2] * u[1], n[2] * u[0] - n[0] * u[2], n[0] * u[1] - n[1] * u[0]];
+    let v = [
+        n[1] * u[2] - n[2] * u[1],
+        n[2] * u[0] - n[0] * u[2],
+        n[0] * u[1] - n[1] * u[0],
+    ];
     let (st, ct) = theta.sin_cos();
     let (sp, cp) = phi.sin_cos();
     std::array::from_fn(|k| ct * n[k] + st * (cp * u[k] + sp * v[k]))
@@ -58,7 +70,10 @@ pub fn round(n: N, seed: u64, round: u32, how: Sampling, beta: f64, alpha: f64) 
             let cap = cap.min(std::f64::consts::FRAC_PI_2);
             (0..k as u64)
                 .map(|j| {
-                    let h = splitmix(seed.wrapping_mul(0x1000_0001).wrapping_add(j + 1000 * round as u64));
+                    let h = splitmix(
+                        seed.wrapping_mul(0x1000_0001)
+                            .wrapping_add(j + 1000 * round as u64),
+                    );
                     let cos_t = 1.0 - unit(h) * (1.0 - cap.cos());
                     let phi = unit(splitmix(h)) * std::f64::consts::TAU;
                     around(n, cos_t.clamp(-1.0, 1.0).acos(), phi)
@@ -70,10 +85,14 @@ pub fn round(n: N, seed: u64, round: u32, how: Sampling, beta: f64, alpha: f64) 
             if tilt > std::f64::consts::FRAC_PI_2 + 1e-9 {
                 return Vec::new();
             }
-            (0..12).map(|j| around(n, tilt, j as f64 * 30f64.to_radians())).collect()
+            (0..12)
+                .map(|j| around(n, tilt, j as f64 * 30f64.to_radians()))
+                .collect()
         }
     };
-    out.into_iter().filter(|d| !is_singular(*d, alpha)).collect()
+    out.into_iter()
+        .filter(|d| !is_singular(*d, alpha))
+        .collect()
 }
 
 #[cfg(test)]
@@ -83,7 +102,14 @@ mod tests {
     #[test]
     fn samples_stay_in_the_cap_and_out_of_the_singular_region() {
         let n = [0.0, 0.0, 1.0];
-        let s = round(n, 7, 0, Sampling::Random { k: 64 }, 45f64.to_radians(), 4.5f64.to_radians());
+        let s = round(
+            n,
+            7,
+            0,
+            Sampling::Random { k: 64 },
+            45f64.to_radians(),
+            4.5f64.to_radians(),
+        );
         assert!(s.len() > 50);
         for d in &s {
             let a = d[2].acos();

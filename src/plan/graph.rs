@@ -35,17 +35,22 @@ pub struct Path {
 /// `blocked` edges `(column of the edge's end, from node, to node)`.
 pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, usize)>) -> Path {
     if cols.is_empty() {
-        return Path { nodes: Vec::new(), breaks: Vec::new(), cost: 0.0 };
+        return Path {
+            nodes: Vec::new(),
+            breaks: Vec::new(),
+            cost: 0.0,
+        };
     }
     let mut cost: Vec<Vec<f64>> = vec![vec![0.0; cols[0].len()]];
     let mut from: Vec<Vec<(usize, bool)>> = vec![vec![(0, false); cols[0].len()]];
     for i in 1..cols.len() {
         let prev = &cost[i - 1];
         // Cheapest predecessor for a break: any node, plus the penalty.
-        let (bk, bc) = prev
-            .iter()
-            .enumerate()
-            .fold((0, f64::INFINITY), |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc });
+        let (bk, bc) =
+            prev.iter().enumerate().fold(
+                (0, f64::INFINITY),
+                |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc },
+            );
         let mut ci = Vec::with_capacity(cols[i].len());
         let mut fi = Vec::with_capacity(cols[i].len());
         for (j, &b) in cols[i].iter().enumerate() {
@@ -69,7 +74,10 @@ pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, 
     let (mut j, total) = cost[last]
         .iter()
         .enumerate()
-        .fold((0, f64::INFINITY), |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc });
+        .fold(
+            (0, f64::INFINITY),
+            |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc },
+        );
     let mut nodes = vec![0; cols.len()];
     let mut breaks = vec![false; cols.len()];
     for i in (0..cols.len()).rev() {
@@ -80,7 +88,11 @@ pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, 
             j = k;
         }
     }
-    Path { nodes, breaks, cost: total }
+    Path {
+        nodes,
+        breaks,
+        cost: total,
+    }
 }
 
 #[cfg(test)]
@@ -88,13 +100,24 @@ mod tests {
     use super::*;
 
     fn brute(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, usize)>) -> f64 {
-        fn go(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, usize)>, i: usize, prev: usize, acc: f64, best: &mut f64) {
+        fn go(
+            cols: &[Vec<(f64, f64)>],
+            blocked: &HashSet<(usize, usize, usize)>,
+            i: usize,
+            prev: usize,
+            acc: f64,
+            best: &mut f64,
+        ) {
             if i == cols.len() {
                 *best = best.min(acc);
                 return;
             }
             for j in 0..cols[i].len() {
-                let w = if blocked.contains(&(i, prev, j)) { BREAK_COST } else { weight(cols[i - 1][prev], cols[i][j]) };
+                let w = if blocked.contains(&(i, prev, j)) {
+                    BREAK_COST
+                } else {
+                    weight(cols[i - 1][prev], cols[i][j])
+                };
                 go(cols, blocked, i + 1, j, acc + w, best);
             }
         }
@@ -109,13 +132,19 @@ mod tests {
     fn dp_matches_brute_force_enumeration() {
         let mut s = 99u64;
         let mut rnd = || {
-            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             (s >> 33) as f64 / (1u64 << 31) as f64
         };
         for _ in 0..200 {
             let n = 2 + (rnd() * 5.0) as usize;
             let cols: Vec<Vec<(f64, f64)>> = (0..n)
-                .map(|_| (0..1 + (rnd() * 4.0) as usize).map(|_| (rnd() * 2.0 - 1.0, rnd() * 7.0 - 3.5)).collect())
+                .map(|_| {
+                    (0..1 + (rnd() * 4.0) as usize)
+                        .map(|_| (rnd() * 2.0 - 1.0, rnd() * 7.0 - 3.5))
+                        .collect()
+                })
                 .collect();
             let mut blocked = HashSet::new();
             for i in 1..n {
@@ -129,11 +158,20 @@ mod tests {
             }
             let p = shortest_path(&cols, &blocked);
             let b = brute(&cols, &blocked);
-            assert!((p.cost - b).abs() < 1e-6 * b.max(1.0), "dp {} brute {}", p.cost, b);
+            assert!(
+                (p.cost - b).abs() < 1e-6 * b.max(1.0),
+                "dp {} brute {}",
+                p.cost,
+                b
+            );
             // The path's own cost adds up.
             let mut c = 0.0;
             for i in 1..n {
-                c += if p.breaks[i] { BREAK_COST } else { weight(cols[i - 1][p.nodes[i - 1]], cols[i][p.nodes[i]]) };
+                c += if p.breaks[i] {
+                    BREAK_COST
+                } else {
+                    weight(cols[i - 1][p.nodes[i - 1]], cols[i][p.nodes[i]])
+                };
                 if !p.breaks[i] {
                     assert!(!blocked.contains(&(i, p.nodes[i - 1], p.nodes[i])));
                 }

@@ -40,7 +40,9 @@ pub enum PlanError {
     #[error(transparent)]
     Collide(#[from] CollideError),
     /// The scene was built from another toolpath.
-    #[error("the scene has {0} waypoints but the toolpath {1}: build the scene from this toolpath")]
+    #[error(
+        "the scene has {0} waypoints but the toolpath {1}: build the scene from this toolpath"
+    )]
     Mismatch(usize, usize),
 }
 
@@ -116,7 +118,13 @@ pub struct Plan {
 /// two IK solutions are the same collision query.
 pub fn half_turn_symmetric(scene: &Scene) -> bool {
     let v = &scene.head.mesh.vertices;
-    let key = |p: [f32; 3]| [(p[0] * 1e4).round() as i64, (p[1] * 1e4).round() as i64, (p[2] * 1e4).round() as i64];
+    let key = |p: [f32; 3]| {
+        [
+            (p[0] * 1e4).round() as i64,
+            (p[1] * 1e4).round() as i64,
+            (p[2] * 1e4).round() as i64,
+        ]
+    };
     let set: HashSet<[i64; 3]> = v.iter().map(|p| key(*p)).collect();
     v.iter().all(|p| set.contains(&key([-p[0], -p[1], p[2]])))
 }
@@ -133,28 +141,53 @@ struct Ctx<'a> {
 impl Ctx<'_> {
     fn axes(&self, p: [f64; 3], (t, c): (f64, f64)) -> Axes {
         let m = self.machine;
-        Axes { xyz: linear_axes(m.configuration, m.rotary, m.offsets(), p, t, c), tilt: t, c }
+        Axes {
+            xyz: linear_axes(m.configuration, m.rotary, m.offsets(), p, t, c),
+            tilt: t,
+            c,
+        }
     }
 
     /// Verdicts for configurations `(waypoint, (tilt, c))`.
-    fn check_configs(&self, items: &[(usize, (f64, f64))], pos: &[[f64; 3]]) -> Result<Vec<bool>, PlanError> {
+    fn check_configs(
+        &self,
+        items: &[(usize, (f64, f64))],
+        pos: &[[f64; 3]],
+    ) -> Result<Vec<bool>, PlanError> {
         let rot = self.machine.rotary;
         let queries: Vec<Query> = items
             .par_iter()
-            .map(|&(i, (t, c))| Query { pose: head_pose(rot, pos[i], t, c), cutoff: self.scene.waypoint_queries[i].cutoff })
+            .map(|&(i, (t, c))| Query {
+                pose: head_pose(rot, pos[i], t, c),
+                cutoff: self.scene.waypoint_queries[i].cutoff,
+            })
             .collect();
         Ok(self.backend.evaluate(&queries)?)
     }
 
     /// Do the moves `(waypoint i, a) → (waypoint i + 1, b)` collide? Checks
     /// are `step` mm of head motion apart.
-    fn check_moves(&self, moves: &[(usize, Axes, Axes)], step: f64, max_samples: usize) -> Result<Vec<bool>, PlanError> {
+    fn check_moves(
+        &self,
+        moves: &[(usize, Axes, Axes)],
+        step: f64,
+        max_samples: usize,
+    ) -> Result<Vec<bool>, PlanError> {
         let per: Vec<Vec<Query>> = moves
             .par_iter()
             .map(|(i, a, b)| {
                 let mut q = Vec::new();
                 let cutoff = self.scene.waypoint_queries[*i].cutoff;
-                motion::between(self.machine, a, b, cutoff, self.reach, step, max_samples, &mut q);
+                motion::between(
+                    self.machine,
+                    a,
+                    b,
+                    cutoff,
+                    self.reach,
+                    step,
+                    max_samples,
+                    &mut q,
+                );
                 q
             })
             .collect();
@@ -190,8 +223,21 @@ pub fn plan(
         stages.push((name.to_string(), clock.elapsed().as_secs_f64()));
         clock = Instant::now();
     };
-    let reach = scene.head.mesh.vertices.iter().map(|v| (v[0] as f64).hypot(v[1] as f64).hypot(v[2] as f64)).fold(0.0, f64::max);
-    let ctx = Ctx { scene, machine, backend, symmetric: half_turn_symmetric(scene), reach, edge_step: opts.edge_step.max(1e-3) };
+    let reach = scene
+        .head
+        .mesh
+        .vertices
+        .iter()
+        .map(|v| (v[0] as f64).hypot(v[1] as f64).hypot(v[2] as f64))
+        .fold(0.0, f64::max);
+    let ctx = Ctx {
+        scene,
+        machine,
+        backend,
+        symmetric: half_turn_symmetric(scene),
+        reach,
+        edge_step: opts.edge_step.max(1e-3),
+    };
     let rot = machine.rotary;
 
     // Flatten the toolpath and split it into sections.
@@ -206,7 +252,12 @@ pub fn plan(
             if j > 0 {
                 let q: [f64; 3] = pos[pos.len() - 1];
                 if (p[0] - q[0]).hypot(p[1] - q[1]).hypot(p[2] - q[2]) > opts.jump {
-                    sections.push(sections.last().map_or(start, |r: &std::ops::Range<usize>| r.end.max(start))..pos.len());
+                    sections.push(
+                        sections
+                            .last()
+                            .map_or(start, |r: &std::ops::Range<usize>| r.end.max(start))
+                            ..pos.len(),
+                    );
                 }
             }
             pos.push(p);
@@ -251,7 +302,10 @@ pub fn plan(
     let items: Vec<(usize, (f64, f64))> = (0..n_wp)
         .flat_map(|i| {
             let k = if ctx.symmetric { 1 } else { 2 };
-            base[i][..k].iter().map(move |&b| (i, b)).collect::<Vec<_>>()
+            base[i][..k]
+                .iter()
+                .map(move |&b| (i, b))
+                .collect::<Vec<_>>()
         })
         .collect();
     let v = ctx.check_configs(&items, &pos)?;
@@ -280,7 +334,9 @@ pub fn plan(
             // The first round also offers the waypoint's own, unsmoothed
             // orientation: smoothing must not make a free waypoint collide.
             let own = (round == 0).then_some(n0[i]);
-            let sampled = candidates::round(centre, i as u64, round, opts.sampling, opts.beta, opts.alpha);
+            // One sample pattern for every waypoint: neighbours get matching
+            // candidates, so the graph can keep the motion smooth.
+            let sampled = candidates::round(centre, 0, round, opts.sampling, opts.beta, opts.alpha);
             for d in own.into_iter().chain(sampled) {
                 for (j, s) in ik_angles(rot, d).into_iter().enumerate() {
                     if j == 0 || !ctx.symmetric {
@@ -391,7 +447,9 @@ pub fn plan(
             e = 0.0;
         } else if !section_start[i] && !breaks[i] {
             let q = pos[i - 1];
-            let len = (pos[i][0] - q[0]).hypot(pos[i][1] - q[1]).hypot(pos[i][2] - q[2]);
+            let len = (pos[i][0] - q[0])
+                .hypot(pos[i][1] - q[1])
+                .hypot(pos[i][2] - q[2]);
             let ex = &machine.extrusion;
             e += ex.k * 0.5 * (heights[i - 1] + heights[i]) * ex.width * len;
         }
@@ -416,7 +474,10 @@ pub fn plan(
         waypoints: n_wp,
         residual_collisions: residual.iter().filter(|&&r| r).count(),
         colliding_edges,
-        singular_waypoints: out.iter().filter(|w| singular::is_singular(w.n, opts.alpha * (1.0 - 1e-9))).count(),
+        singular_waypoints: out
+            .iter()
+            .filter(|w| singular::is_singular(w.n, opts.alpha * (1.0 - 1e-9)))
+            .count(),
         breaks: breaks.iter().filter(|&&b| b).count(),
         ..Metrics::default()
     };
@@ -424,13 +485,20 @@ pub fn plan(
     let dev: Vec<f64> = out
         .iter()
         .zip(&n0)
-        .map(|(w, n)| (w.n[0] * n[0] + w.n[1] * n[1] + w.n[2] * n[2]).clamp(-1.0, 1.0).acos().to_degrees())
+        .map(|(w, n)| {
+            (w.n[0] * n[0] + w.n[1] * n[1] + w.n[2] * n[2])
+                .clamp(-1.0, 1.0)
+                .acos()
+                .to_degrees()
+        })
         .collect();
     plan_m.max_deviation_deg = dev.iter().copied().fold(0.0, f64::max);
     plan_m.mean_deviation_deg = dev.iter().sum::<f64>() / dev.len().max(1) as f64;
 
     let input_axes = direct_ik(&ctx, &pos, &n0, &sections);
-    let items: Vec<(usize, (f64, f64))> = (0..n_wp).map(|i| (i, (input_axes[i].tilt, input_axes[i].c))).collect();
+    let items: Vec<(usize, (f64, f64))> = (0..n_wp)
+        .map(|i| (i, (input_axes[i].tilt, input_axes[i].c)))
+        .collect();
     let hit = ctx.check_configs(&items, &pos)?;
     let mut moves = Vec::new();
     for r in &sections {
@@ -444,13 +512,22 @@ pub fn plan(
     // each: its colliding-edge count is a lower bound.
     let edge_hits = ctx.check_moves(&moves, 4.0 * ctx.edge_step, 16)?;
     let input_wp: Vec<PlannedWaypoint> = (0..n_wp)
-        .map(|i| PlannedWaypoint { axes: input_axes[i], n: n0[i], p: pos[i], break_before: false, ..out[i].clone() })
+        .map(|i| PlannedWaypoint {
+            axes: input_axes[i],
+            n: n0[i],
+            p: pos[i],
+            break_before: false,
+            ..out[i].clone()
+        })
         .collect();
     let mut input_m = Metrics {
         waypoints: n_wp,
         residual_collisions: hit.iter().filter(|&&h| h).count(),
         colliding_edges: edge_hits.iter().filter(|&&h| h).count(),
-        singular_waypoints: n0.iter().filter(|n| singular::is_singular(**n, opts.alpha)).count(),
+        singular_waypoints: n0
+            .iter()
+            .filter(|n| singular::is_singular(**n, opts.alpha))
+            .count(),
         breaks: 0,
         ..Metrics::default()
     };
@@ -459,12 +536,22 @@ pub fn plan(
         w.was_colliding = *h;
     }
     lap("metrics", &mut stages);
-    Ok(Plan { waypoints: out, input: input_m, plan: plan_m, stages })
+    Ok(Plan {
+        waypoints: out,
+        input: input_m,
+        plan: plan_m,
+        stages,
+    })
 }
 
 /// Direct IK of the input: per waypoint the solution closest to the
 /// previous one (the first: the smaller |C|), C unwound.
-fn direct_ik(ctx: &Ctx, pos: &[[f64; 3]], n: &[[f64; 3]], sections: &[std::ops::Range<usize>]) -> Vec<Axes> {
+fn direct_ik(
+    ctx: &Ctx,
+    pos: &[[f64; 3]],
+    n: &[[f64; 3]],
+    sections: &[std::ops::Range<usize>],
+) -> Vec<Axes> {
     let rot = ctx.machine.rotary;
     let mut out = vec![Axes::default(); pos.len()];
     for r in sections {
@@ -492,7 +579,11 @@ fn direct_ik(ctx: &Ctx, pos: &[[f64; 3]], n: &[[f64; 3]], sections: &[std::ops::
     out
 }
 
-fn segment_stats(m: &Machine, w: &[PlannedWaypoint], sections: &[std::ops::Range<usize>]) -> SegmentStats {
+fn segment_stats(
+    m: &Machine,
+    w: &[PlannedWaypoint],
+    sections: &[std::ops::Range<usize>],
+) -> SegmentStats {
     let mut s = SegmentStats::default();
     for r in sections {
         for i in r.start + 1..r.end {
@@ -500,7 +591,9 @@ fn segment_stats(m: &Machine, w: &[PlannedWaypoint], sections: &[std::ops::Range
                 continue;
             }
             let (a, b) = (&w[i - 1], &w[i]);
-            let len = (b.p[0] - a.p[0]).hypot(b.p[1] - a.p[1]).hypot(b.p[2] - a.p[2]);
+            let len = (b.p[0] - a.p[0])
+                .hypot(b.p[1] - a.p[1])
+                .hypot(b.p[2] - a.p[2]);
             s.add(m, len, &a.axes, &b.axes);
         }
     }
@@ -516,15 +609,20 @@ fn extrusion_heights(pos: &[[f64; 3]], layer_of: &[usize], default: f64) -> Vec<
     let mut prev: Option<RTree<[f64; 3]>> = None;
     while start < pos.len() {
         let l = layer_of[start];
-        let end = (start..pos.len()).find(|&i| layer_of[i] != l).unwrap_or(pos.len());
+        let end = (start..pos.len())
+            .find(|&i| layer_of[i] != l)
+            .unwrap_or(pos.len());
         if let Some(tree) = &prev {
-            out[start..end].par_iter_mut().enumerate().for_each(|(k, h)| {
-                if let Some(q) = tree.nearest_neighbor(pos[start + k]) {
-                    let p = pos[start + k];
-                    let d = (p[0] - q[0]).hypot(p[1] - q[1]).hypot(p[2] - q[2]);
-                    *h = d.clamp(0.05 * default, 4.0 * default);
-                }
-            });
+            out[start..end]
+                .par_iter_mut()
+                .enumerate()
+                .for_each(|(k, h)| {
+                    if let Some(q) = tree.nearest_neighbor(pos[start + k]) {
+                        let p = pos[start + k];
+                        let d = (p[0] - q[0]).hypot(p[1] - q[1]).hypot(p[2] - q[2]);
+                        *h = d.clamp(0.05 * default, 4.0 * default);
+                    }
+                });
         }
         prev = Some(RTree::bulk_load(pos[start..end].to_vec()));
         start = end;

@@ -13,8 +13,21 @@ use crate::scene::Query;
 /// material of `cutoff`; `reach` is the head's largest distance from its
 /// tip; at most `max_samples` of them.
 #[allow(clippy::too_many_arguments)]
-pub fn between(m: &Machine, a: &Axes, b: &Axes, cutoff: u32, reach: f64, step: f64, max_samples: usize, out: &mut Vec<Query>) {
-    let d = [b.xyz[0] - a.xyz[0], b.xyz[1] - a.xyz[1], b.xyz[2] - a.xyz[2]];
+pub fn between(
+    m: &Machine,
+    a: &Axes,
+    b: &Axes,
+    cutoff: u32,
+    reach: f64,
+    step: f64,
+    max_samples: usize,
+    out: &mut Vec<Query>,
+) {
+    let d = [
+        b.xyz[0] - a.xyz[0],
+        b.xyz[1] - a.xyz[1],
+        b.xyz[2] - a.xyz[2],
+    ];
     let (cfg, rot_pair, off) = (m.configuration, m.rotary, m.offsets());
     let pa = tip_position(cfg, rot_pair, off, a.xyz, a.tilt, a.c);
     let pb = tip_position(cfg, rot_pair, off, b.xyz, b.tilt, b.c);

@@ -11,6 +11,7 @@
 //!   other's;
 //! - otherwise it crosses the pole towards the far anchor's flipped solution
 //!   `(−tilt, C + π)`, whose C is closer.
+//!
 //! A section entirely singular holds tilt 0 and C 0.
 //! The angles are the `tilt ≤ 0` member of the IK pair; the graph adds the
 //! mirrored member `(−tilt, C + π)` of the same orientation.
@@ -90,7 +91,13 @@ mod tests {
 
     #[test]
     fn runs_at_start_and_end_take_their_anchor() {
-        let n = vec![dir(1.0, 0.0), dir(2.0, 90.0), dir(10.0, 40.0), dir(12.0, 50.0), dir(3.0, 10.0)];
+        let n = vec![
+            dir(1.0, 0.0),
+            dir(2.0, 90.0),
+            dir(10.0, 40.0),
+            dir(12.0, 50.0),
+            dir(3.0, 10.0),
+        ];
         let (f, flags) = process(Rotary::BC, &n, A);
         assert_eq!(flags, vec![true, true, false, false, true]);
         assert_eq!(f[0], Some(ik_angles(Rotary::BC, n[2])[0]));
@@ -102,7 +109,13 @@ mod tests {
     #[test]
     fn minor_arc_stays_on_the_cone_boundary() {
         // Anchors at azimuths 0° and 60°: the run sweeps C by 60° at tilt α.
-        let n = vec![dir(8.0, 0.0), dir(2.0, 200.0), dir(1.0, 10.0), dir(3.0, 300.0), dir(8.0, 60.0)];
+        let n = vec![
+            dir(8.0, 0.0),
+            dir(2.0, 200.0),
+            dir(1.0, 10.0),
+            dir(3.0, 300.0),
+            dir(8.0, 60.0),
+        ];
         let (f, _) = process(Rotary::BC, &n, A);
         let c0 = ik_angles(Rotary::BC, n[0])[0].1;
         for (k, fk) in f.iter().enumerate().take(4).skip(1) {
@@ -120,12 +133,19 @@ mod tests {
     fn opposite_anchors_flip_through_the_pole() {
         // Azimuths 0° and 170°: C would swing 170°; the flip crosses the pole
         // with a 10° C change and the tilt changing sign.
-        let n = vec![dir(6.0, 0.0), dir(1.0, 90.0), dir(1.0, 100.0), dir(6.0, 170.0)];
+        let n = vec![
+            dir(6.0, 0.0),
+            dir(1.0, 90.0),
+            dir(1.0, 100.0),
+            dir(6.0, 170.0),
+        ];
         let (f, _) = process(Rotary::BC, &n, A);
         let (t1, c1) = f[1].unwrap();
         let (t2, c2) = f[2].unwrap();
         assert!(t1 < 0.0 && t2 > 0.0, "tilt changes sign: {t1} {t2}");
         let c0 = ik_angles(Rotary::BC, n[0])[0].1;
-        assert!(wrap(c1 - c0).abs() < 10f64.to_radians() && wrap(c2 - c1).abs() < 10f64.to_radians());
+        assert!(
+            wrap(c1 - c0).abs() < 10f64.to_radians() && wrap(c2 - c1).abs() < 10f64.to_radians()
+        );
     }
 }

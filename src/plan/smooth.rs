@@ -65,7 +65,11 @@ fn laplacian(n: &[N]) -> Vec<N> {
     let mut out = n.to_vec();
     for i in 1..n.len().saturating_sub(1) {
         let (a, b, c) = (out[i - 1], n[i], n[i + 1]);
-        out[i] = norm([a[0] + 0.5 * b[0] + c[0], a[1] + 0.5 * b[1] + c[1], a[2] + 0.5 * b[2] + c[2]]);
+        out[i] = norm([
+            a[0] + 0.5 * b[0] + c[0],
+            a[1] + 0.5 * b[1] + c[1],
+            a[2] + 0.5 * b[2] + c[2],
+        ]);
     }
     out
 }
@@ -94,7 +98,11 @@ fn median(w: &[N]) -> N {
 /// output (as MATLAB's `filtfilt`): no lag. Edges use the shorter windows.
 fn zero_phase(n: &[N], window: usize, f: fn(&[N]) -> N) -> Vec<N> {
     let w = window.max(1);
-    let causal = |x: &[N]| -> Vec<N> { (0..x.len()).map(|i| f(&x[i.saturating_sub(w - 1)..=i])).collect() };
+    let causal = |x: &[N]| -> Vec<N> {
+        (0..x.len())
+            .map(|i| f(&x[i.saturating_sub(w - 1)..=i]))
+            .collect()
+    };
     let fwd = causal(n);
     let mut rev: Vec<N> = fwd.into_iter().rev().collect();
     rev = causal(&rev);
@@ -116,7 +124,11 @@ fn correct_into_cone(b: &[N], t: &[N], half: f64) -> Vec<N> {
             let d = dot(ts, b);
             let u = norm([ts[0] - d * b[0], ts[1] - d * b[1], ts[2] - d * b[2]]);
             let (s, c) = half.sin_cos();
-            norm([c * b[0] + s * u[0], c * b[1] + s * u[1], c * b[2] + s * u[2]])
+            norm([
+                c * b[0] + s * u[0],
+                c * b[1] + s * u[1],
+                c * b[2] + s * u[2],
+            ])
         })
         .collect()
 }
@@ -127,12 +139,20 @@ mod tests {
 
     fn noisy(k: usize) -> Vec<N> {
         (0..k)
-            .map(|i| norm([0.3 * (i as f64 * 0.05).sin() + if i % 2 == 0 { 0.05 } else { -0.05 }, 0.0, 1.0]))
+            .map(|i| {
+                norm([
+                    0.3 * (i as f64 * 0.05).sin() + if i % 2 == 0 { 0.05 } else { -0.05 },
+                    0.0,
+                    1.0,
+                ])
+            })
             .collect()
     }
 
     fn roughness(n: &[N]) -> f64 {
-        n.windows(2).map(|w| dot(w[0], w[1]).clamp(-1.0, 1.0).acos()).sum()
+        n.windows(2)
+            .map(|w| dot(w[0], w[1]).clamp(-1.0, 1.0).acos())
+            .sum()
     }
 
     #[test]
@@ -140,8 +160,14 @@ mod tests {
         let n = noisy(200);
         for how in [
             Smoothing::Laplacian { passes: 1 },
-            Smoothing::MovingAverage { window: 9, cone_deg: 30.0 },
-            Smoothing::Median { window: 9, cone_deg: 30.0 },
+            Smoothing::MovingAverage {
+                window: 9,
+                cone_deg: 30.0,
+            },
+            Smoothing::Median {
+                window: 9,
+                cone_deg: 30.0,
+            },
         ] {
             let s = smooth(&n, how);
             assert_eq!(s.len(), n.len());
@@ -155,12 +181,22 @@ mod tests {
     #[test]
     fn cone_correction_bounds_the_deviation() {
         let n = noisy(100);
-        let s = smooth(&n, Smoothing::MovingAverage { window: 40, cone_deg: 1.0 });
+        let s = smooth(
+            &n,
+            Smoothing::MovingAverage {
+                window: 40,
+                cone_deg: 1.0,
+            },
+        );
         for (a, b) in n.iter().zip(&s) {
             assert!(dot(*a, *b).acos() <= 1.0f64.to_radians() + 1e-9);
         }
         // Paper 004's worked case: b = z, T_S at 60°, cone 30° → (0.5, 0, 0.866).
-        let c = correct_into_cone(&[[0.0, 0.0, 1.0]], &[[60f64.to_radians().sin(), 0.0, 0.5]], 30f64.to_radians());
+        let c = correct_into_cone(
+            &[[0.0, 0.0, 1.0]],
+            &[[60f64.to_radians().sin(), 0.0, 0.5]],
+            30f64.to_radians(),
+        );
         assert!((c[0][0] - 0.5).abs() < 1e-9 && (c[0][2] - 0.75f64.sqrt()).abs() < 1e-9);
     }
 }
