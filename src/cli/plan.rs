@@ -182,7 +182,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     write_json(&out.join("report.json"), &report)?;
 
     println!("{:<22} {:>12} {:>12}", "", "input", "plan");
-    let rows: [(&str, String, String); 9] = [
+    let rows: [(&str, String, String); 10] = [
         (
             "waypoints",
             p.input.waypoints.to_string(),
@@ -222,6 +222,11 @@ pub fn run(a: PlanArgs) -> Result<()> {
             "breaks",
             p.input.breaks.to_string(),
             p.plan.breaks.to_string(),
+        ),
+        (
+            "axis limit violations",
+            p.input.axis_limit_violations.to_string(),
+            p.plan.axis_limit_violations.to_string(),
         ),
         (
             "orientation change",

@@ -31,6 +31,9 @@ pub struct Metrics {
     pub singular_waypoints: usize,
     /// Breaks in the toolpath (lift and travel inside a section).
     pub breaks: usize,
+    /// Waypoints whose axes leave the machine's ranges (X, Y, Z, tilt, and C
+    /// where the machine limits it).
+    pub axis_limit_violations: usize,
     /// Largest angle between a waypoint's orientation and its input one (degrees).
     pub max_deviation_deg: f64,
     /// Mean of that angle (degrees).
@@ -89,4 +92,16 @@ impl SegmentStats {
         out.max_step_deg = self.max_step;
         out.speed_violation_pct = 100.0 * self.violations as f64 / self.segments.max(1) as f64;
     }
+}
+
+/// Is `a` outside the machine's axis ranges?
+pub fn outside_limits(m: &Machine, a: &Axes) -> bool {
+    let out = |v: f64, l: &crate::kinematics::AxisLimits| v < l.min || v > l.max;
+    out(a.xyz[0], &m.x)
+        || out(a.xyz[1], &m.y)
+        || out(a.xyz[2], &m.z)
+        || out(a.tilt.to_degrees(), &m.tilt)
+        || m.c
+            .range
+            .is_some_and(|[lo, hi]| a.c.to_degrees() < lo || a.c.to_degrees() > hi)
 }

@@ -360,6 +360,12 @@ pub fn plan(
         open.retain(|&i| cols[i].is_empty());
         round += 1;
     }
+    // Configurations the tilt axis cannot reach are dropped (kept only where
+    // nothing else exists, and then reported).
+    let (tmin, tmax) = (machine.tilt.min.to_radians(), machine.tilt.max.to_radians());
+    for c in cols.iter_mut() {
+        c.retain(|&(t, _)| t >= tmin - 1e-12 && t <= tmax + 1e-12);
+    }
     let residual: Vec<bool> = (0..n_wp).map(|i| cols[i].is_empty()).collect();
     for i in 0..n_wp {
         if cols[i].is_empty() {
@@ -493,6 +499,10 @@ pub fn plan(
         })
         .collect();
     plan_m.max_deviation_deg = dev.iter().copied().fold(0.0, f64::max);
+    plan_m.axis_limit_violations = out
+        .iter()
+        .filter(|w| metrics::outside_limits(machine, &w.axes))
+        .count();
     plan_m.mean_deviation_deg = dev.iter().sum::<f64>() / dev.len().max(1) as f64;
 
     let input_axes = direct_ik(&ctx, &pos, &n0, &sections);
@@ -532,6 +542,10 @@ pub fn plan(
         ..Metrics::default()
     };
     segment_stats(machine, &input_wp, &sections).finish(&mut input_m);
+    input_m.axis_limit_violations = input_axes
+        .iter()
+        .filter(|a| metrics::outside_limits(machine, a))
+        .count();
     for (w, h) in out.iter_mut().zip(&hit) {
         w.was_colliding = *h;
     }
