@@ -107,6 +107,14 @@ mod tests {
     }
 
     #[test]
+    fn a_wholly_singular_section_holds_still() {
+        let n = vec![dir(1.0, 0.0), dir(2.0, 120.0), dir(0.5, 240.0)];
+        let (f, flags) = process(Rotary::BC, &n, A);
+        assert!(flags.iter().all(|&s| s));
+        assert!(f.iter().all(|x| *x == Some((0.0, 0.0))));
+    }
+
+    #[test]
     fn minor_arc_stays_on_the_cone_boundary() {
         // Anchors at azimuths 0° and 60°: the run sweeps C by 60° at tilt α.
         let n = vec![
