@@ -22,5 +22,6 @@ pub mod geometry;
 pub mod io;
 pub mod kinematics;
 pub mod plan;
+pub mod report;
 pub mod scene;
 pub mod toolpath;

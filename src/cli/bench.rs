@@ -49,7 +49,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let mut reference: Option<Vec<bool>> = None;
     for kind in &a.backends {
         let t0 = Instant::now();
-        let backend = kind.build(scene)?;
+        let backend = kind.build(scene, true)?;
         let setup = t0.elapsed().as_secs_f64();
         // Repeat short runs (at least 2 s or 5 runs) and keep the median.
         let mut times = Vec::new();

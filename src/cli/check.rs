@@ -36,6 +36,12 @@ pub struct CheckArgs {
     /// axes give (forward kinematics of `--machine`), one row per waypoint.
     #[arg(long, value_name = "PLAN_CSV")]
     plan: Option<PathBuf>,
+    /// Print only errors.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Print scene details too.
+    #[arg(short, long, conflicts_with = "quiet")]
+    verbose: bool,
     /// Machine file for `--plan` [default: the default machine].
     #[arg(long, requires = "plan")]
     machine: Option<PathBuf>,
@@ -45,7 +51,7 @@ pub struct CheckArgs {
 pub fn run(a: CheckArgs) -> Result<()> {
     let loaded = a.scene.load()?;
     let scene = &loaded.scene;
-    let backend = a.backend.build(scene)?;
+    let backend = a.backend.build(scene, !a.quiet)?;
     let tilted: Vec<Query>;
     let queries = match (a.tilt, &a.plan) {
         (_, Some(csv)) => {
@@ -113,6 +119,30 @@ pub fn run(a: CheckArgs) -> Result<()> {
     }
     let colliding: usize = per_layer.iter().map(|p| p.1).sum();
 
+    if let Some(path) = &a.json {
+        write_report(
+            path,
+            &loaded,
+            backend.name(),
+            seconds,
+            &verdicts,
+            &per_layer,
+        )?;
+    }
+    if a.quiet {
+        return Ok(());
+    }
+    if a.verbose {
+        println!(
+            "scene: {} triangles ({} BVH nodes), head {} triangles, grid {:?} cells of {:.3} mm, tolerance {:.1e} mm",
+            scene.triangle_count(),
+            scene.part_nodes.len(),
+            scene.head.triangles.len(),
+            scene.head.params.grid_dims,
+            scene.head.params.cell,
+            scene.tol
+        );
+    }
     println!("{:>8} {:>10} {:>10}", "layer", "waypoints", "colliding");
     for (l, (n, c)) in layers.iter().zip(&per_layer) {
         println!("{:>8} {:>10} {:>10}", l.name, n, c);
@@ -129,19 +159,30 @@ pub fn run(a: CheckArgs) -> Result<()> {
         scene.triangle_count(),
         loaded.seconds,
     );
-    if let Some(path) = &a.json {
-        let v = json!({
-            "source": loaded.source,
-            "waypoints": verdicts.len(),
-            "colliding": colliding,
-            "backend": backend.name(),
-            "seconds": seconds,
-            "layers": layers.iter().zip(&per_layer).enumerate().map(|(i, (l, (n, c)))| json!({
-                "index": i, "name": l.name, "waypoints": n, "colliding": c,
-            })).collect::<Vec<_>>(),
-            "colliding_waypoints": verdicts.iter().enumerate().filter(|(_, &h)| h).map(|(i, _)| i).collect::<Vec<_>>(),
-        });
-        write_json(path, &v)?;
-    }
     Ok(())
+}
+
+/// The `--json` document.
+fn write_report(
+    path: &std::path::Path,
+    loaded: &super::Loaded,
+    backend: &str,
+    seconds: f64,
+    verdicts: &[bool],
+    per_layer: &[(usize, usize)],
+) -> Result<()> {
+    let layers = &loaded.toolpath.layers;
+    let colliding: usize = per_layer.iter().map(|p| p.1).sum();
+    let v = json!({
+        "source": loaded.source,
+        "waypoints": verdicts.len(),
+        "colliding": colliding,
+        "backend": backend,
+        "seconds": seconds,
+        "layers": layers.iter().zip(per_layer).enumerate().map(|(i, (l, (n, c)))| json!({
+            "index": i, "name": l.name, "waypoints": n, "colliding": c,
+        })).collect::<Vec<_>>(),
+        "colliding_waypoints": verdicts.iter().enumerate().filter(|(_, &h)| h).map(|(i, _)| i).collect::<Vec<_>>(),
+    });
+    write_json(path, &v)
 }

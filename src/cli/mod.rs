@@ -90,21 +90,25 @@ impl BackendKind {
         }
     }
 
-    /// Build the backend over `scene`.
-    pub fn build<'a>(self, scene: &'a Scene) -> Result<Box<dyn Backend + 'a>> {
+    /// Build the backend over `scene`; `announce` says on stderr what `auto` chose.
+    pub fn build<'a>(self, scene: &'a Scene, announce: bool) -> Result<Box<dyn Backend + 'a>> {
         Ok(match self {
             BackendKind::Auto => match GpuContext::open(true) {
                 Ok(Some(ctx)) => {
                     let name = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
                     let b = GpuBackend::new(ctx, scene, GpuOptions::default())?;
-                    eprintln!("backend auto: gpu on {name}");
+                    if announce {
+                        eprintln!("backend auto: gpu on {name}");
+                    }
                     Box::new(b)
                 }
                 Ok(None) => {
-                    eprintln!(
-                        "backend auto: no hardware GPU, using cpu ({} threads)",
-                        rayon::current_num_threads()
-                    );
+                    if announce {
+                        eprintln!(
+                            "backend auto: no hardware GPU, using cpu ({} threads)",
+                            rayon::current_num_threads()
+                        );
+                    }
                     Box::new(CpuBackend::new(scene))
                 }
                 Err(e) => {

@@ -1,6 +1,6 @@
 //! `maamplan plan`: waypoints → machine axes, G-code, CSV and a report.
 
-use super::{write_json, BackendKind, SceneArgs, UsageError};
+use super::{BackendKind, SceneArgs, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use maamplan::io::gcode::write_gcode;
@@ -68,6 +68,15 @@ pub struct PlanArgs {
     /// Largest move of any head point between two motion checks (mm).
     #[arg(long, default_value_t = 0.5)]
     edge_step: f64,
+    /// Skip the plots, the 3D scene and the HTML report.
+    #[arg(long)]
+    no_plots: bool,
+    /// Print only errors.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Print seconds per stage too.
+    #[arg(short, long, conflicts_with = "quiet")]
+    verbose: bool,
     /// Write the default machine file here and exit.
     #[arg(long)]
     write_machine: Option<PathBuf>,
@@ -101,7 +110,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     };
     let loaded = a.scene.load()?;
     let scene = &loaded.scene;
-    let backend = a.backend.build(scene)?;
+    let backend = a.backend.build(scene, !a.quiet)?;
     let load_s = t0.elapsed().as_secs_f64();
 
     let opts = PlanOptions {
@@ -129,7 +138,11 @@ pub fn run(a: PlanArgs) -> Result<()> {
         edge_step: a.edge_step,
         jump: 5.0,
     };
-    let pb = indicatif::ProgressBar::new_spinner();
+    let pb = if a.quiet {
+        indicatif::ProgressBar::hidden()
+    } else {
+        indicatif::ProgressBar::new_spinner()
+    };
     pb.set_style(
         indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
             .expect("static template"),
@@ -156,30 +169,94 @@ pub fn run(a: PlanArgs) -> Result<()> {
     }
     stages.insert("write".into(), json!(write_s));
     let seconds = t0.elapsed().as_secs_f64();
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    // Everything goes into a scratch folder beside DIR first; only when all
+    // of it exists is it moved into DIR, so a failed run leaves nothing.
+    let parent = out
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(std::path::Path::new("."));
+    std::fs::create_dir_all(parent).map_err(|e| {
+        UsageError(format!(
+            "{}: cannot create the output folder ({e})",
+            parent.display()
+        ))
+    })?;
+    let scratch = tempfile::Builder::new()
+        .prefix(".maamplan-")
+        .tempdir_in(parent)
+        .map_err(|e| UsageError(format!("{}: cannot write there ({e})", parent.display())))?;
+    let put = |name: &str, bytes: &[u8]| -> Result<()> {
+        std::fs::write(scratch.path().join(name), bytes).with_context(|| format!("writing {name}"))
+    };
+    put("toolpath.gcode", gcode.as_bytes())?;
+    put("plan.csv", csv.as_bytes())?;
+    let mut files = vec![
+        "toolpath.gcode".to_string(),
+        "plan.csv".to_string(),
+        "report.json".to_string(),
+    ];
+    if !a.no_plots {
+        let t2 = Instant::now();
+        let figs =
+            maamplan::report::plots::write_figures(&machine, &p, &scratch.path().join("plots"))
+                .map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+        put(
+            "scene.glb",
+            &maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
+        )?;
+        let html = maamplan::report::html::report_html(
+            &loaded.source,
+            &command,
+            &machine,
+            &p,
+            &figs,
+            seconds,
+        );
+        put("report.html", html.as_bytes())?;
+        stages.insert("report".into(), json!(t2.elapsed().as_secs_f64()));
+        files.extend([
+            "scene.glb".to_string(),
+            "report.html".to_string(),
+            "plots".to_string(),
+        ]);
+    }
     let report = json!({
         "source": loaded.source,
         "backend": backend.name(),
         "machine": machine,
         "input": p.input,
         "plan": p.plan,
-        "seconds": seconds,
+        "seconds": t0.elapsed().as_secs_f64(),
         "stages": stages,
-        "command": std::env::args().collect::<Vec<_>>().join(" "),
+        "command": command,
     });
+    let mut text = serde_json::to_string_pretty(&report)?;
+    text.push('\n');
+    put("report.json", text.as_bytes())?;
     std::fs::create_dir_all(&out).map_err(|e| {
         UsageError(format!(
             "{}: cannot create the output folder ({e})",
             out.display()
         ))
     })?;
-    let write = |name: &str, bytes: &[u8]| -> Result<()> {
-        let path = out.join(name);
-        write_atomic(&path, bytes)
-            .map_err(|e| UsageError(format!("{}: cannot write ({e})", path.display())).into())
-    };
-    write("toolpath.gcode", gcode.as_bytes())?;
-    write("plan.csv", csv.as_bytes())?;
-    write_json(&out.join("report.json"), &report)?;
+    for f in &files {
+        let dst = out.join(f);
+        if dst.is_dir() {
+            std::fs::remove_dir_all(&dst)
+                .with_context(|| format!("replacing {}", dst.display()))?;
+        }
+        std::fs::rename(scratch.path().join(f), &dst)
+            .map_err(|e| UsageError(format!("{}: cannot write ({e})", dst.display())))?;
+    }
+    if a.quiet {
+        return Ok(());
+    }
+    if a.verbose {
+        for (k, v) in &stages {
+            println!("stage {k:<14} {:>8.3} s", v.as_f64().unwrap_or(0.0));
+        }
+    }
 
     println!("{:<22} {:>12} {:>12}", "", "input", "plan");
     let rows: [(&str, String, String); 10] = [

@@ -112,6 +112,10 @@ pub struct Plan {
     pub plan: Metrics,
     /// Seconds per stage, in order.
     pub stages: Vec<(String, f64)>,
+    /// The input's machine axes (direct IK, C unwound), per waypoint.
+    pub input_axes: Vec<Axes>,
+    /// The singular region's half-angle used (radians).
+    pub alpha: f64,
 }
 
 /// Does a half-turn about the head axis map the head onto itself? Then the
@@ -555,6 +559,8 @@ pub fn plan(
         input: input_m,
         plan: plan_m,
         stages,
+        input_axes,
+        alpha: opts.alpha,
     })
 }
 

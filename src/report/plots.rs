@@ -1,0 +1,296 @@
+//! Plots with `plotters`, each as SVG (for the HTML report) and PNG:
+//! B and C per waypoint of each layer, input vs plan, with the singular
+//! band shaded (paper 000, Fig. 8); the tip-speed histogram, input vs plan,
+//! with [v_min, v_max] marked (Fig. 10); colliding waypoints per layer.
+//! The text uses the embedded DejaVu Sans (datasets/fonts), so plots look
+//! the same on every machine.
+
+use super::{layer_table, tip_speeds};
+use crate::kinematics::Machine;
+use crate::plan::Plan;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use std::path::Path;
+use std::sync::Once;
+
+const FONT: &[u8] = include_bytes!("../../datasets/fonts/DejaVuSans.ttf");
+const INPUT: RGBColor = RGBColor(150, 150, 150);
+const PLAN: RGBColor = RGBColor(31, 119, 180);
+const BAND: RGBColor = RGBColor(255, 200, 120);
+const SIZE: (u32, u32) = (900, 520);
+
+/// A plot: its file stem, title and SVG text.
+pub struct Figure {
+    /// File stem under `plots/`.
+    pub name: String,
+    /// Caption.
+    pub title: String,
+    /// The SVG document.
+    pub svg: String,
+}
+
+fn fonts() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // A failure leaves plotters without text, never without plots.
+        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
+    });
+}
+
+type DrawResult = Result<(), String>;
+
+fn err<E: std::fmt::Debug>(e: E) -> String {
+    format!("{e:?}")
+}
+
+/// Every figure of `plan`.
+pub fn figures(m: &Machine, plan: &Plan) -> Result<Vec<Figure>, String> {
+    fonts();
+    let mut out = Vec::new();
+    let mut svg = |name: String,
+                   title: String,
+                   draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult|
+     -> DrawResult {
+        let mut s = String::new();
+        {
+            let root = SVGBackend::with_string(&mut s, SIZE).into_drawing_area();
+            draw(root)?;
+        }
+        out.push(Figure {
+            name,
+            title,
+            svg: s,
+        });
+        Ok(())
+    };
+    let layers = layer_table(plan).len();
+    for k in 0..layers {
+        svg(
+            format!("bc_layer_{k}"),
+            format!("Layer {k}: B and C per waypoint"),
+            &|root| bc_chart(root, plan, k),
+        )?;
+    }
+    svg(
+        "tip_speed".into(),
+        "Tip speed per segment".into(),
+        &|root| speed_chart(root, m, plan),
+    )?;
+    svg(
+        "collisions".into(),
+        "Colliding waypoints per layer".into(),
+        &|root| collision_chart(root, plan),
+    )?;
+    Ok(out)
+}
+
+/// Write every figure as `<name>.svg` and `<name>.png` into `dir` (the
+/// caller makes the whole folder appear at once).
+pub fn write_figures(m: &Machine, plan: &Plan, dir: &Path) -> Result<Vec<Figure>, String> {
+    let figs = figures(m, plan)?;
+    std::fs::create_dir_all(dir).map_err(err)?;
+    let layers = layer_table(plan).len();
+    for f in &figs {
+        std::fs::write(dir.join(format!("{}.svg", f.name)), f.svg.as_bytes()).map_err(err)?;
+        let png = dir.join(format!("{}.png", f.name));
+        let root = BitMapBackend::new(&png, SIZE).into_drawing_area();
+        match f.name.strip_prefix("bc_layer_") {
+            Some(k) => bc_chart(
+                root,
+                plan,
+                k.parse().unwrap_or(0).min(layers.saturating_sub(1)),
+            )?,
+            None if f.name == "tip_speed" => speed_chart(root, m, plan)?,
+            None => collision_chart(root, plan)?,
+        }
+    }
+    Ok(figs)
+}
+
+fn bc_chart<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    plan: &Plan,
+    layer: usize,
+) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
+    let idx: Vec<usize> = (0..plan.waypoints.len())
+        .filter(|&i| plan.waypoints[i].layer == layer)
+        .collect();
+    let (top, bottom) = root.split_vertically(SIZE.1 / 2);
+    let alpha = plan.alpha.to_degrees();
+    for (area, is_b) in [(top, true), (bottom, false)] {
+        let val = |a: &crate::kinematics::Axes| {
+            if is_b {
+                a.tilt.to_degrees()
+            } else {
+                a.c.to_degrees()
+            }
+        };
+        let inp: Vec<(f64, f64)> = idx
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| (k as f64, val(&plan.input_axes[i])))
+            .collect();
+        let pl: Vec<(f64, f64)> = idx
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| (k as f64, val(&plan.waypoints[i].axes)))
+            .collect();
+        let (lo, hi) = inp
+            .iter()
+            .chain(&pl)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
+                (l.min(p.1), h.max(p.1))
+            });
+        let (lo, hi) = if lo.is_finite() {
+            (lo - 1.0, hi + 1.0)
+        } else {
+            (-1.0, 1.0)
+        };
+        let n = idx.len().max(2) as f64;
+        let mut c = ChartBuilder::on(&area)
+            .margin(8)
+            .x_label_area_size(28)
+            .y_label_area_size(56)
+            .caption(
+                if is_b {
+                    format!("layer {layer}: B (°)")
+                } else {
+                    format!("layer {layer}: C (°, unwound)")
+                },
+                ("sans-serif", 16),
+            )
+            .build_cartesian_2d(0.0..n, lo..hi)
+            .map_err(err)?;
+        c.configure_mesh()
+            .x_desc("waypoint")
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(err)?;
+        if is_b {
+            // The singular region: |B| ≤ α.
+            c.draw_series(std::iter::once(Rectangle::new(
+                [(0.0, -alpha), (n, alpha)],
+                BAND.mix(0.5).filled(),
+            )))
+            .map_err(err)?
+            .label(format!("singular |B| ≤ {alpha:.1}°"))
+            .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], BAND.filled()));
+        }
+        c.draw_series(LineSeries::new(inp, INPUT.stroke_width(1)))
+            .map_err(err)?
+            .label("input")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], INPUT));
+        c.draw_series(LineSeries::new(pl, PLAN.stroke_width(2)))
+            .map_err(err)?
+            .label("plan")
+            .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], PLAN));
+        c.configure_series_labels()
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(err)?;
+    }
+    root.present().map_err(err)
+}
+
+fn speed_chart<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    m: &Machine,
+    plan: &Plan,
+) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
+    let (inp, pl) = tip_speeds(m, plan);
+    let top = m.tip_speed[1] * 1.2;
+    let bins = 60usize;
+    let w = top / bins as f64;
+    let hist = |v: &[f64]| {
+        let mut h = vec![0usize; bins];
+        for &x in v {
+            h[((x / w) as usize).min(bins - 1)] += 1;
+        }
+        h
+    };
+    let (hi, hp) = (hist(&inp), hist(&pl));
+    let ymax = hi.iter().chain(&hp).copied().max().unwrap_or(1).max(1) as f64;
+    let mut c = ChartBuilder::on(&root)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .caption(
+            "tip speed over the part (mm/s), input vs plan",
+            ("sans-serif", 18),
+        )
+        .build_cartesian_2d(0.0..top, (0.5..ymax * 2.0).log_scale())
+        .map_err(err)?;
+    c.configure_mesh()
+        .x_desc("mm/s")
+        .y_desc("segments")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    let [vmin, vmax] = m.tip_speed;
+    c.draw_series(
+        [vmin, vmax].map(|v| PathElement::new([(v, 0.5), (v, ymax * 2.0)], RED.stroke_width(2))),
+    )
+    .map_err(err)?
+    .label(format!("[v_min, v_max] = [{vmin}, {vmax}]"))
+    .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED));
+    for (h, color, label, off) in [(&hi, INPUT, "input", 0.0), (&hp, PLAN, "plan", 0.5)] {
+        c.draw_series(h.iter().enumerate().filter(|(_, &n)| n > 0).map(|(b, &n)| {
+            let x0 = b as f64 * w + off * w;
+            Rectangle::new([(x0, 0.5), (x0 + 0.5 * w, n as f64)], color.filled())
+        }))
+        .map_err(err)?
+        .label(label)
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
+    }
+    c.configure_series_labels()
+        .position(SeriesLabelPosition::UpperLeft)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)
+}
+
+fn collision_chart<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plan: &Plan) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
+    let t = layer_table(plan);
+    let ymax = t.iter().map(|r| r.1.max(r.2)).max().unwrap_or(0).max(1) as f64 * 1.15;
+    let n = t.len().max(1) as f64;
+    let mut c = ChartBuilder::on(&root)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(60)
+        .caption(
+            "colliding waypoints per layer, input vs plan",
+            ("sans-serif", 18),
+        )
+        .build_cartesian_2d(0.0..n, 0.0..ymax)
+        .map_err(err)?;
+    c.configure_mesh()
+        .x_desc("layer")
+        .y_desc("waypoints")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    for (color, label, off, pick) in [(INPUT, "input", 0.1, 1usize), (PLAN, "plan", 0.5, 2)] {
+        c.draw_series(t.iter().enumerate().map(|(k, r)| {
+            let v = if pick == 1 { r.1 } else { r.2 } as f64;
+            Rectangle::new(
+                [(k as f64 + off, 0.0), (k as f64 + off + 0.4, v)],
+                color.filled(),
+            )
+        }))
+        .map_err(err)?
+        .label(label)
+        .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
+    }
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)
+}
