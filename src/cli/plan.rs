@@ -318,11 +318,13 @@ pub fn run(a: PlanArgs) -> Result<()> {
         println!("{k:<22} {i:>12} {pl:>12}");
     }
     println!(
-        "{}: planned in {:.2} s (backend {}); wrote {}/toolpath.gcode, plan.csv, report.json",
+        "{}: planned in {:.2} s, {:.2} s in all (backend {}); wrote {}/{}",
         loaded.source,
         seconds,
+        t0.elapsed().as_secs_f64(),
         backend.name(),
-        out.display()
+        out.display(),
+        files.join(", ")
     );
     Ok(())
 }
