@@ -18,6 +18,7 @@
 
 pub mod collide;
 pub mod default_job;
+pub mod generate;
 pub mod geometry;
 pub mod io;
 pub mod kinematics;
