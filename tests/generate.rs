@@ -396,6 +396,35 @@ fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
     assert!(r.side_steps.len() > 20);
 }
 
+#[test]
+fn isoplanar_then_plan_end_to_end() {
+    let mesh = saddle();
+    let r = isoplanar(&mesh, &IsoplanarOptions::default()).unwrap();
+    let zmin = mesh
+        .vertices
+        .iter()
+        .map(|v| v[2])
+        .fold(f32::INFINITY, f32::min);
+    let platform = box_mesh([-40.0, -40.0, zmin - 8.0], [40.0, 40.0, zmin - 3.0]);
+    let head = cone_head(20.0, 20.0, 30.0, 32);
+    let scene = Scene::build(&r.toolpath, &head, &platform, &SceneConfig::default()).unwrap();
+    let backend = CpuBackend::new(&scene);
+    let p = plan(
+        &scene,
+        &r.toolpath,
+        &Machine::default(),
+        &backend,
+        &PlanOptions::default(),
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_eq!(p.waypoints.len(), r.toolpath.waypoint_count());
+    assert!(p
+        .waypoints
+        .iter()
+        .all(|w| w.axes.xyz.iter().all(|x| x.is_finite())));
+}
+
 fn cli(args: &[&str]) -> (i32, String) {
     let out = Command::new(env!("CARGO_BIN_EXE_maamplan"))
         .args(args)

@@ -161,10 +161,16 @@ fn mzz(runs: &[Run]) -> Vec<Pass> {
         return Vec::new();
     }
     let overlaps = |a: &Run, b: &Run| a.i0 <= b.i1 && b.i0 <= a.i1;
+    // The runs of one row (runs are sorted by row).
+    let row_runs = |row: i64| {
+        let lo = runs.partition_point(|r| r.row < row);
+        let hi = runs.partition_point(|r| r.row <= row);
+        &runs[lo..hi]
+    };
     let mut starts = Vec::new();
     for (k, r) in runs.iter().enumerate() {
-        let above = runs.iter().any(|o| o.row == r.row - 1 && overlaps(o, r));
-        let below = runs.iter().any(|o| o.row == r.row + 1 && overlaps(o, r));
+        let above = row_runs(r.row - 1).iter().any(|o| overlaps(o, r));
+        let below = row_runs(r.row + 1).iter().any(|o| overlaps(o, r));
         if !above || !below {
             starts.push(Pass {
                 run: k,
