@@ -80,6 +80,7 @@ pub fn run(a: SliceArgs) -> Result<()> {
             "runs": l.runs,
             "print_mm": l.print_length,
             "travel_mm": l.travel_length,
+            "entry_mm": l.entry_length,
         })).collect::<Vec<_>>(),
         "total": {
             "layers": r.layers.len(),
@@ -87,6 +88,7 @@ pub fn run(a: SliceArgs) -> Result<()> {
             "print_mm": total.print,
             "travel_mm": total.travel,
             "path_mm": total.total(),
+            "between_layers_mm": r.layers.iter().map(|l| l.entry_length).sum::<f64>(),
         },
         "seconds": t0.elapsed().as_secs_f64(),
     });

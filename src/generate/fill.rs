@@ -66,11 +66,13 @@ pub struct Pass {
 }
 
 impl Pass {
-    fn start(&self, runs: &[Run]) -> (i64, i64) {
+    /// `(row, column)` of the first grid point.
+    pub fn start(&self, runs: &[Run]) -> (i64, i64) {
         let r = runs[self.run];
         (r.row, if self.forward { r.i0 } else { r.i1 })
     }
-    fn end(&self, runs: &[Run]) -> (i64, i64) {
+    /// `(row, column)` of the last grid point.
+    pub fn end(&self, runs: &[Run]) -> (i64, i64) {
         let r = runs[self.run];
         (r.row, if self.forward { r.i1 } else { r.i0 })
     }
@@ -123,10 +125,18 @@ pub fn lengths(runs: &[Run], order: &[Pass], spacing: f64) -> Lengths {
 
 /// The order in which `fill` prints `runs` (sorted by row, then column).
 pub fn order(runs: &[Run], fill: Fill) -> Vec<Pass> {
+    order_from(runs, fill, None)
+}
+
+/// [`order`], for a slice entered from the grid point `from` = `[column,
+/// row]` (fractional; where the previous layer ended): MZZ breaks ties
+/// between equally short orders by the start nearest it. Zig-zag and
+/// one-way always start at the first row's first run.
+pub fn order_from(runs: &[Run], fill: Fill, from: Option<[f64; 2]>) -> Vec<Pass> {
     match fill {
         Fill::Zigzag => rows(runs, true),
         Fill::Oneway => rows(runs, false),
-        Fill::Mzz => mzz(runs),
+        Fill::Mzz => mzz(runs, from),
     }
 }
 
@@ -155,8 +165,9 @@ fn rows(runs: &[Run], alternate: bool) -> Vec<Pass> {
 }
 
 /// Greedy nearest continuation from every section start; the shortest wins
-/// (ties: the earlier start; the zig-zag order is the last candidate).
-fn mzz(runs: &[Run]) -> Vec<Pass> {
+/// (the zig-zag order is the first candidate; ties go to the start nearest
+/// `from`, then to the earlier candidate).
+fn mzz(runs: &[Run], from: Option<[f64; 2]>) -> Vec<Pass> {
     if runs.is_empty() {
         return Vec::new();
     }
@@ -188,14 +199,27 @@ fn mzz(runs: &[Run]) -> Vec<Pass> {
         let step = starts.len().div_ceil(cap);
         starts = starts.into_iter().step_by(step).collect();
     }
+    // Shortest within the slice; among equally short ones, the one starting
+    // nearest `from` (Sec. 2.2.2: the next layer starts near where the last
+    // one ended).
+    let entry = |o: &[Pass]| {
+        from.map_or(0.0, |f| {
+            let (row, col) = o[0].start(runs);
+            ((f[0] - col as f64).powi(2) + (f[1] - row as f64).powi(2)).sqrt()
+        })
+    };
     let mut best = rows(runs, true);
     let mut best_len = lengths(runs, &best, 1.0).total();
+    let mut best_entry = entry(&best);
     for s in starts {
         let cand = greedy(runs, s);
         let l = lengths(runs, &cand, 1.0).total();
-        if l < best_len - 1e-9 {
+        let e = entry(&cand);
+        let tol = 1e-12 * best_len.max(1.0);
+        if l < best_len - tol || (l <= best_len + tol && e < best_entry - 1e-9) {
             best = cand;
-            best_len = l;
+            best_len = l.min(best_len);
+            best_entry = e;
         }
     }
     best

@@ -10,10 +10,11 @@
 //! loops. The grid is anchored half a step inside the slice's bounding box,
 //! on the in-plane axes `u`, `v` (`u × v = d`); rows run along `u`.
 //! Waypoints are the grid points in fill order, on the slice plane, with the
-//! nozzle along `d`. Each layer's surface is the union of one strip of
+//! nozzle along `d`; MZZ starts each layer, among its equally short
+//! orders, nearest where the previous layer ended. Each layer's surface is the union of one strip of
 //! width S per run (the printed region), facing `d`.
 
-use super::fill::{lengths, order, Fill, Lengths, Run};
+use super::fill::{lengths, order_from, Fill, Lengths, Run};
 use super::section::section;
 use super::{validate, GenerateError};
 use crate::geometry::Mesh;
@@ -49,6 +50,9 @@ pub struct LayerSummary {
     pub print_length: f64,
     /// Travel (non-printing) length within the layer (mm).
     pub travel_length: f64,
+    /// Travel from the previous layer's last waypoint to this layer's
+    /// first (mm; 0 for the first layer).
+    pub entry_length: f64,
 }
 
 /// A sliced and filled mesh.
@@ -144,6 +148,7 @@ pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateEr
         dir: d,
     };
     let mut total_points = 0usize;
+    let mut prev_end: Option<[f64; 3]> = None;
     for k in 0..n_layers {
         let t = t_min + (k as f64 + 0.5) * opts.layer;
         if t >= t_max {
@@ -186,7 +191,9 @@ pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateEr
         if runs.is_empty() {
             continue;
         }
-        let ord = order(&runs, opts.fill);
+        let from =
+            prev_end.map(|p: [f64; 3]| [(dot(p, u) - base[0]) / s, (dot(p, v) - base[1]) / s]);
+        let ord = order_from(&runs, opts.fill, from);
         let len = lengths(&runs, &ord, s);
         let at = |i: i64, row: i64| -> [f32; 3] {
             let (a, b) = (base[0] + i as f64 * s, base[1] + row as f64 * s);
@@ -206,6 +213,12 @@ pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateEr
             }));
         }
         total_points += waypoints.len();
+        let first = waypoints[0].pos.map(|x| x as f64);
+        let entry_length = prev_end.map_or(0.0, |p| {
+            ((p[0] - first[0]).powi(2) + (p[1] - first[1]).powi(2) + (p[2] - first[2]).powi(2))
+                .sqrt()
+        });
+        prev_end = Some(waypoints[waypoints.len() - 1].pos.map(|x| x as f64));
         if total_points > 50_000_000 {
             return Err(GenerateError::Parameter(
                 "more than 50 million waypoints: use a coarser spacing or thicker layers".into(),
@@ -234,6 +247,7 @@ pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateEr
             runs: runs.len(),
             print_length: len.print,
             travel_length: len.travel,
+            entry_length,
         });
         result.toolpath.layers.push(Layer {
             name,
