@@ -433,7 +433,7 @@ fn sample_piece(
         s.push(s[s.len() - 1] + dist(w[0].pos, w[1].pos));
     }
     let total = s[s.len() - 1];
-    // Position and normal at arc length x (segment index hint j).
+    // Segment index, position and normal at arc length x.
     let eval = |x: f64| -> (usize, [f64; 3], [f64; 3]) {
         let j = s
             .partition_point(|&v| v <= x)
@@ -471,11 +471,14 @@ fn sample_piece(
             kappa(a) + t.clamp(0.0, 1.0) * (kappa(b) - kappa(a))
         }
         .abs();
-        // Eq. 12
-        let mut step = if k0 > 1e-12 && 2.0 * d < 1.0 / k0 {
+        // Eq. 12 (a circle of radius r_f has sagitta δ over this chord;
+        // on a circle smaller than δ every chord is within δ).
+        let mut step = if k0 <= 1e-12 {
+            opts.max_step
+        } else if d < 1.0 / k0 {
             (8.0 * d / k0 - 4.0 * d * d).sqrt()
         } else {
-            opts.max_step
+            2.0 / k0
         }
         .min(opts.max_step);
         let start = *pos.last().expect("non-empty");
@@ -500,6 +503,44 @@ fn sample_piece(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn forward_steps_follow_eq_12_on_a_circle() {
+        let r = 10.0;
+        let n = 2000;
+        let pts: Vec<SectionPoint> = (0..=n)
+            .map(|i| {
+                let a = 0.5 * PI * i as f64 / n as f64;
+                SectionPoint {
+                    pos: [r * a.sin(), 0.0, r * a.cos()],
+                    edge: (0, 1),
+                    t: 0.0,
+                }
+            })
+            .collect();
+        let opts = IsoplanarOptions::default();
+        let (pos, nrm) = sample_piece(&pts, &opts, &|_| 1.0 / r, &|p| p.pos.map(|x| x / r));
+        let d = opts.chord_error;
+        let lf = (8.0 * d * r - 4.0 * d * d).sqrt();
+        // 15.7 mm of arc in steps of ~2 mm
+        assert_eq!(
+            pos.len(),
+            (0.5 * PI * r / lf).ceil() as usize + 1,
+            "{}",
+            pos.len()
+        );
+        for w in pos.windows(2).take(pos.len() - 2) {
+            let chord = dist(w[0], w[1]);
+            assert!((chord - lf).abs() < 1e-2, "{chord} vs {lf}");
+            let mid = lerp3(w[0], w[1], 0.5);
+            let sagitta = r - dot(mid, mid).sqrt();
+            assert!(sagitta <= d + 1e-6 && sagitta > 0.9 * d, "{sagitta}");
+        }
+        assert!(nrm
+            .iter()
+            .zip(&pos)
+            .all(|(n, p)| (dot(*n, *p) / r - 1.0).abs() < 1e-6));
+    }
 
     #[test]
     fn flat_width_is_a_quarter_pi_of_the_nozzle() {
