@@ -1,10 +1,10 @@
 //! Toolpath generators: turn a mesh into waypoints that `plan` and `check`
 //! read.
 //!
-//! - [`slice`]: planar slices of a closed mesh along any direction (paper
+//! - [`slice`](mod@slice): planar slices of a closed mesh along any direction (paper
 //!   003), each filled on a grid with a zig-zag, one-way or MZZ raster
 //!   ([`fill`]); the nozzle points along the slicing direction.
-//! - [`isoplanar`]: deposition-rate-optimal iso-planar paths on one curved
+//! - [`isoplanar`](mod@isoplanar): deposition-rate-optimal iso-planar paths on one curved
 //!   layer surface (paper 001), nozzle along the surface normal.
 //!
 //! Shared pieces: [`validate`] (the mesh checks every generator runs first),
