@@ -4,6 +4,9 @@
 //! manufacturing. This crate answers one question millions of times: *with
 //! the print head at this pose, does it touch the platform or anything
 //! already printed?* — exactly (triangle-level), for batches of poses.
+//! [`plan`] builds machine motion on top of it, and [`generate`] makes the
+//! waypoints from a mesh (planar slicing with raster fills, iso-planar
+//! paths on a curved layer).
 //!
 //! ```
 //! use maamplan::{collide::{cpu::CpuBackend, Backend}, default_job, scene::{Scene, SceneConfig}};
@@ -18,6 +21,7 @@
 
 pub mod collide;
 pub mod default_job;
+pub mod generate;
 pub mod geometry;
 pub mod io;
 pub mod kinematics;

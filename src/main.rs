@@ -37,6 +37,7 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.is::<InputError>()
             || cause.is::<cli::UsageError>()
             || cause.is::<maamplan::kinematics::MachineError>()
+            || cause.is::<maamplan::generate::GenerateError>()
         {
             return 2;
         }

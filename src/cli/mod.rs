@@ -4,7 +4,9 @@
 mod bench;
 mod check;
 mod info;
+mod isoplanar;
 mod plan;
+mod slice;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -40,6 +42,10 @@ enum Command {
     Plan(plan::PlanArgs),
     /// List GPU adapters, their kind (hardware / software) and limits.
     Info,
+    /// Slice a closed mesh into planar layers along a direction and fill them (zig-zag, one-way, MZZ).
+    Slice(slice::SliceArgs),
+    /// Deposition-rate-optimal iso-planar paths on a curved layer surface.
+    Isoplanar(isoplanar::IsoplanarArgs),
 }
 
 /// Inputs shared by every command.
@@ -130,7 +136,7 @@ impl BackendKind {
     }
 }
 
-fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
+pub(crate) fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
     let v: Vec<f32> = s
         .split(',')
         .map(|x| x.trim().parse::<f32>())
@@ -252,6 +258,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(a) => bench::run(a),
         Command::Plan(a) => plan::run(a),
         Command::Info => info::run(),
+        Command::Slice(a) => slice::run(a),
+        Command::Isoplanar(a) => isoplanar::run(a),
     }
 }
 
@@ -282,6 +290,13 @@ pub fn evaluate_with_progress(
     }
     pb.finish_and_clear();
     Ok(out)
+}
+
+/// `value` as pretty JSON bytes with a final newline.
+pub fn json_bytes(value: &serde_json::Value) -> Result<Vec<u8>> {
+    let mut text = serde_json::to_string_pretty(value)?;
+    text.push('\n');
+    Ok(text.into_bytes())
 }
 
 /// Serialise `value` as pretty JSON to `path`, atomically.

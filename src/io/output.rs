@@ -23,3 +23,50 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
     tmp.persist(path).map_err(|e| e.error)?;
     Ok(())
 }
+
+/// Write a folder of files (paths relative to `dir`) as one step: everything
+/// goes into a temporary folder beside `dir` first, so a failure leaves no
+/// partial output. If `dir` exists, each top-level entry written replaces
+/// the one of the same name (a stale `waypoint/` folder goes as a whole);
+/// other entries are left alone.
+pub fn write_folder_atomic(
+    dir: &Path,
+    files: &[(std::path::PathBuf, Vec<u8>)],
+) -> std::io::Result<()> {
+    let parent = dir
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let tmp = tempfile::Builder::new()
+        .prefix(".maamplan-")
+        .tempdir_in(parent)?;
+    for (rel, bytes) in files {
+        let p = tmp.path().join(rel);
+        if let Some(d) = p.parent() {
+            std::fs::create_dir_all(d)?;
+        }
+        std::fs::write(&p, bytes)?;
+    }
+    if !dir.exists() {
+        let kept = tmp.keep();
+        std::fs::rename(&kept, dir)?;
+        return Ok(());
+    }
+    let mut tops: Vec<std::path::PathBuf> = files
+        .iter()
+        .filter_map(|(rel, _)| rel.components().next())
+        .map(|c| std::path::PathBuf::from(c.as_os_str()))
+        .collect();
+    tops.sort();
+    tops.dedup();
+    for top in tops {
+        let target = dir.join(&top);
+        if target.is_dir() {
+            std::fs::remove_dir_all(&target)?;
+        } else if target.exists() {
+            std::fs::remove_file(&target)?;
+        }
+        std::fs::rename(tmp.path().join(&top), &target)?;
+    }
+    Ok(())
+}

@@ -195,6 +195,48 @@ pub fn natural_key(name: &str) -> (u64, String) {
     (num, name[digits.len()..].to_string())
 }
 
+/// The files of `tp` in the toolpath folder layout, relative to the folder:
+/// `waypoint/<name>.txt` (one `px py pz nx ny nz` line per waypoint) and,
+/// for layers with a surface, `layer/<name>.obj`. Numbers are written in
+/// their shortest round-trip form, so reading the folder back gives the
+/// same values.
+pub fn toolpath_files(tp: &Toolpath) -> Vec<(PathBuf, Vec<u8>)> {
+    use std::fmt::Write;
+    let mut out = Vec::new();
+    for l in &tp.layers {
+        let mut text = String::with_capacity(l.waypoints.len() * 48);
+        for w in &l.waypoints {
+            let [x, y, z] = w.pos;
+            let [a, b, c] = w.dir;
+            let _ = writeln!(text, "{x} {y} {z} {a} {b} {c}");
+        }
+        out.push((
+            PathBuf::from("waypoint").join(format!("{}.txt", l.name)),
+            text.into_bytes(),
+        ));
+        if let Some(m) = &l.surface {
+            out.push((
+                PathBuf::from("layer").join(format!("{}.obj", l.name)),
+                mesh_obj(m).into_bytes(),
+            ));
+        }
+    }
+    out
+}
+
+/// A mesh as OBJ text (`v` and 1-based `f` lines).
+pub fn mesh_obj(m: &crate::geometry::Mesh) -> String {
+    use std::fmt::Write;
+    let mut s = String::with_capacity(m.vertices.len() * 32 + m.triangles.len() * 24);
+    for [x, y, z] in &m.vertices {
+        let _ = writeln!(s, "v {x} {y} {z}");
+    }
+    for [a, b, c] in &m.triangles {
+        let _ = writeln!(s, "f {} {} {}", a + 1, b + 1, c + 1);
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

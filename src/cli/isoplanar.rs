@@ -1,0 +1,102 @@
+//! `maamplan isoplanar`: a curved layer surface → deposition-rate-optimal
+//! iso-planar waypoints (paper 001) → a toolpath folder and a summary with
+//! the v_e(θ) curve and θ*.
+
+use super::UsageError;
+use anyhow::{Context, Result};
+use clap::Args;
+use maamplan::generate::{isoplanar, IsoplanarOptions};
+use maamplan::io::mesh::load_mesh;
+use maamplan::io::output::write_folder_atomic;
+use maamplan::io::toolpath::toolpath_files;
+use maamplan::kinematics::{load_machine, Machine};
+use serde_json::json;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `isoplanar`.
+#[derive(Args, Debug)]
+pub struct IsoplanarArgs {
+    /// Layer surface (OBJ/STL/glTF, mm): a manifold triangle mesh whose
+    /// winding makes its normals point to the nozzle side.
+    surface: PathBuf,
+    /// Machine file (TOML) whose axis speeds bound the feed rate [default: the built-in machine].
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// Bead width s, the ellipse's major axis (mm) [default: the machine's extrusion width].
+    #[arg(long)]
+    nozzle: Option<f64>,
+    /// Layer thickness h (mm) [default: the machine's default layer height].
+    #[arg(long)]
+    height: Option<f64>,
+    /// Largest chord error δ_c (mm).
+    #[arg(long, default_value_t = 0.05)]
+    chord_error: f64,
+    /// Longest forward step (mm).
+    #[arg(long, default_value_t = 2.0)]
+    max_step: f64,
+    /// Sampling of the feed angle θ over [0°, 180°] (degrees).
+    #[arg(long, default_value_t = 2.0)]
+    theta_step: f64,
+    /// Output folder: waypoint/0.txt, layer/0.obj, summary.json.
+    #[arg(short, long)]
+    out: Option<PathBuf>,
+}
+
+/// Run `isoplanar`.
+pub fn run(a: IsoplanarArgs) -> Result<()> {
+    let Some(out) = a.out.clone() else {
+        return Err(UsageError("isoplanar needs -o DIR (the output folder)".into()).into());
+    };
+    let t0 = Instant::now();
+    let machine = match &a.machine {
+        Some(p) => load_machine(p)?,
+        None => Machine::default(),
+    };
+    let mesh = load_mesh(&a.surface)?;
+    let opts = IsoplanarOptions {
+        nozzle: a.nozzle.unwrap_or(machine.extrusion.width),
+        height: a.height.unwrap_or(machine.extrusion.default_height),
+        chord_error: a.chord_error,
+        max_step: a.max_step,
+        theta_step_deg: a.theta_step,
+        machine,
+        ..IsoplanarOptions::default()
+    };
+    let r = isoplanar(&mesh, &opts).with_context(|| a.surface.display().to_string())?;
+    let n = r.toolpath.waypoint_count();
+    let summary = json!({
+        "command": "isoplanar",
+        "surface": a.surface.display().to_string(),
+        "nozzle_mm": opts.nozzle,
+        "height_mm": opts.height,
+        "chord_error_mm": opts.chord_error,
+        "theta_star_deg": r.theta_star_deg,
+        "drive_plane_normal": [r.theta_star_deg.to_radians().sin(), r.theta_star_deg.to_radians().cos(), 0.0],
+        "curve": r.curve,
+        "curves": r.side_steps.len() + 1,
+        "side_steps_mm": r.side_steps,
+        "waypoints": n,
+        "print_mm": r.print_length,
+        "travel_mm": r.travel_length,
+        "seconds": t0.elapsed().as_secs_f64(),
+    });
+    let mut files = toolpath_files(&r.toolpath);
+    files.push(("summary.json".into(), super::json_bytes(&summary)?));
+    write_folder_atomic(&out, &files).map_err(|e| {
+        UsageError(format!(
+            "{}: cannot write ({e}): check the parent folder exists and is writable",
+            out.display()
+        ))
+    })?;
+    println!(
+        "θ* = {:.1}°, {} curves, {} waypoints, print {:.1} mm, travel {:.1} mm → {}",
+        r.theta_star_deg,
+        r.side_steps.len() + 1,
+        n,
+        r.print_length,
+        r.travel_length,
+        out.display()
+    );
+    Ok(())
+}
