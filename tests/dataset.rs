@@ -8,33 +8,10 @@ use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::sample::tilted_queries;
 use maamplan::collide::Backend;
-use maamplan::io::mesh::load_mesh;
-use maamplan::io::toolpath::load_toolpath;
-use maamplan::io::Placement;
-use maamplan::scene::{Query, Scene, SceneConfig};
-use std::path::{Path, PathBuf};
-
-fn data() -> PathBuf {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/zhang2021");
-    assert!(
-        d.is_dir(),
-        "the data set must sit at {} (see README)",
-        d.display()
-    );
-    d
-}
+use maamplan::scene::{Query, Scene};
 
 fn simple_curve() -> Scene {
-    let d = data();
-    let place = Placement {
-        y_up: false,
-        offset: [0.0, 0.0, 40.5],
-    };
-    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
-    assert_eq!(tp.waypoint_count(), 41_494);
-    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
-    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
-    Scene::build(&tp, &head, &platform, &SceneConfig::default()).unwrap()
+    common::simple_curve().1
 }
 
 fn compare(scene: &Scene, queries: &[Query]) -> usize {

@@ -11,11 +11,7 @@ use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
 use maamplan::collide::sample::tilted_queries;
 use maamplan::collide::Backend;
 use maamplan::default_job::box_mesh;
-use maamplan::io::mesh::load_mesh;
-use maamplan::io::toolpath::load_toolpath;
-use maamplan::io::Placement;
 use maamplan::scene::{HeadConfig, Query, Scene, SceneConfig};
-use std::path::Path;
 
 /// The GPU backend over `scene`, or `None` (skip) when no adapter exists
 /// and the environment does not require one.
@@ -88,15 +84,7 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
 
 #[test]
 fn simple_curve_every_waypoint_and_100k_tilted_poses() {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/zhang2021");
-    let place = Placement {
-        y_up: false,
-        offset: [0.0, 0.0, 40.5],
-    };
-    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
-    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
-    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
-    let scene = Scene::build(&tp, &head, &platform, &SceneConfig::default()).unwrap();
+    let (_, scene) = simple_curve();
     let Some(g) = gpu(&scene, GpuOptions::default()) else {
         return;
     };

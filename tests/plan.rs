@@ -2,20 +2,17 @@
 //! reference G-code's figures, the embedded default, G-code parse-back, and
 //! the `plan` command's outputs.
 
+mod common;
+
+use common::{default_scene, simple_curve};
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::Backend;
 use maamplan::io::gcode::{parse_g1, rotary_motion, write_gcode};
-use maamplan::io::mesh::load_mesh;
-use maamplan::io::toolpath::load_toolpath;
-use maamplan::io::Placement;
 use maamplan::kinematics::{forward, head_pose, Axes, Machine};
 use maamplan::plan::{plan, PlanOptions};
-use maamplan::scene::{Query, Scene, SceneConfig};
-use std::path::{Path, PathBuf};
+use maamplan::scene::{Query, Scene};
 
-fn data() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/zhang2021")
-}
+use common::data;
 
 /// Reference G-code figures quoted by the planner issue.
 fn reference() -> (f64, f64) {
@@ -55,15 +52,7 @@ fn gcode_queries(m: &Machine, gcode: &str, scene: &Scene) -> Vec<Query> {
 
 #[test]
 fn simple_curve_plan_meets_the_paper() {
-    let d = data();
-    let place = Placement {
-        y_up: false,
-        offset: [0.0, 0.0, 40.5],
-    };
-    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
-    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
-    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
-    let scene = Scene::build(&tp, &head, &platform, &SceneConfig::default()).unwrap();
+    let (tp, scene) = simple_curve();
     let machine = Machine::default();
     let cpu = CpuBackend::new(&scene);
     let p = plan(
@@ -138,14 +127,7 @@ fn simple_curve_plan_meets_the_paper() {
 
 #[test]
 fn default_job_plan_removes_collisions() {
-    let job = maamplan::default_job::job();
-    let scene = Scene::build(
-        &job.toolpath,
-        &job.head,
-        &job.platform,
-        &SceneConfig::default(),
-    )
-    .unwrap();
+    let (job, scene) = default_scene();
     let cpu = CpuBackend::new(&scene);
     let p = plan(
         &scene,

@@ -4,16 +4,15 @@
 //! are required where MAAMPLAN_REQUIRE_TOOLS=1 (CI); elsewhere the tests
 //! that need them say why they skip.
 
+mod common;
+
 use maamplan::collide::cpu::CpuBackend;
-use maamplan::io::mesh::load_mesh;
-use maamplan::io::toolpath::load_toolpath;
-use maamplan::io::Placement;
 use maamplan::kinematics::Machine;
 use maamplan::plan::smooth::Smoothing;
 use maamplan::plan::{plan, Plan, PlanOptions};
 use maamplan::report::plots::figures;
 use maamplan::report::scene_glb::scene_glb;
-use maamplan::scene::{Scene, SceneConfig};
+use maamplan::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -26,14 +25,7 @@ fn manifest() -> PathBuf {
 }
 
 fn default_plan(opts: &PlanOptions) -> (Scene, Plan) {
-    let job = maamplan::default_job::job();
-    let scene = Scene::build(
-        &job.toolpath,
-        &job.head,
-        &job.platform,
-        &SceneConfig::default(),
-    )
-    .unwrap();
+    let (job, scene) = common::default_scene();
     let cpu = CpuBackend::new(&scene);
     let p = plan(
         &scene,
@@ -53,15 +45,7 @@ fn simple_curve_plan() -> &'static (Scene, Plan) {
 }
 
 fn simple_curve_plan_uncached() -> (Scene, Plan) {
-    let d = manifest().join("../shared/datasets/zhang2021");
-    let place = Placement {
-        y_up: false,
-        offset: [0.0, 0.0, 40.5],
-    };
-    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
-    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
-    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
-    let scene = Scene::build(&tp, &head, &platform, &SceneConfig::default()).unwrap();
+    let (tp, scene) = common::simple_curve();
     let cpu = CpuBackend::new(&scene);
     let p = plan(
         &scene,

@@ -258,64 +258,9 @@ pub fn run(a: PlanArgs) -> Result<()> {
         }
     }
 
-    println!("{:<22} {:>12} {:>12}", "", "input", "plan");
-    let rows: [(&str, String, String); 10] = [
-        (
-            "waypoints",
-            p.input.waypoints.to_string(),
-            p.plan.waypoints.to_string(),
-        ),
-        (
-            "residual collisions",
-            p.input.residual_collisions.to_string(),
-            p.plan.residual_collisions.to_string(),
-        ),
-        (
-            "colliding edges",
-            p.input.colliding_edges.to_string(),
-            p.plan.colliding_edges.to_string(),
-        ),
-        (
-            "speed violations %",
-            format!("{:.2}", p.input.speed_violation_pct),
-            format!("{:.2}", p.plan.speed_violation_pct),
-        ),
-        (
-            "J (deg)",
-            format!("{:.0}", p.input.j_deg),
-            format!("{:.0}", p.plan.j_deg),
-        ),
-        (
-            "max step (deg)",
-            format!("{:.1}", p.input.max_step_deg),
-            format!("{:.1}", p.plan.max_step_deg),
-        ),
-        (
-            "singular waypoints",
-            p.input.singular_waypoints.to_string(),
-            p.plan.singular_waypoints.to_string(),
-        ),
-        (
-            "breaks",
-            p.input.breaks.to_string(),
-            p.plan.breaks.to_string(),
-        ),
-        (
-            "axis limit violations",
-            p.input.axis_limit_violations.to_string(),
-            p.plan.axis_limit_violations.to_string(),
-        ),
-        (
-            "orientation change",
-            "0".into(),
-            format!(
-                "mean {:.1}°, max {:.1}°",
-                p.plan.mean_deviation_deg, p.plan.max_deviation_deg
-            ),
-        ),
-    ];
-    for (k, i, pl) in rows {
-        println!("{k:<22} {i:>12} {pl:>12}");
+    println!("{:<32} {:>12} {:>14}", "", "input", "plan");
+    for (k, i, pl) in maamplan::report::summary_rows(&p.input, &p.plan) {
+        println!("{k:<32} {i:>12} {pl:>14}");
     }
     println!(
         "{}: planned in {:.2} s, {:.2} s in all (backend {}); wrote {}/{}",

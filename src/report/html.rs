@@ -2,10 +2,9 @@
 //! network): the input-vs-plan summary, the per-layer table, the plots, the
 //! machine and the command that produced it.
 
-use super::layer_table;
 use super::plots::Figure;
+use super::{layer_table, summary_rows};
 use crate::kinematics::Machine;
-use crate::plan::metrics::Metrics;
 use crate::plan::Plan;
 use std::fmt::Write;
 
@@ -13,57 +12,6 @@ fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
-}
-
-fn rows(i: &Metrics, p: &Metrics) -> Vec<(&'static str, String, String)> {
-    vec![
-        (
-            "waypoints",
-            i.waypoints.to_string(),
-            p.waypoints.to_string(),
-        ),
-        (
-            "residual collisions",
-            i.residual_collisions.to_string(),
-            p.residual_collisions.to_string(),
-        ),
-        (
-            "colliding edges",
-            i.colliding_edges.to_string(),
-            p.colliding_edges.to_string(),
-        ),
-        (
-            "tip-speed violations",
-            format!("{:.2} %", i.speed_violation_pct),
-            format!("{:.2} %", p.speed_violation_pct),
-        ),
-        (
-            "J = Σ |ΔB| + |ΔC|",
-            format!("{:.0}°", i.j_deg),
-            format!("{:.0}°", p.j_deg),
-        ),
-        (
-            "largest step",
-            format!("{:.1}°", i.max_step_deg),
-            format!("{:.1}°", p.max_step_deg),
-        ),
-        (
-            "singular waypoints",
-            i.singular_waypoints.to_string(),
-            p.singular_waypoints.to_string(),
-        ),
-        ("breaks", i.breaks.to_string(), p.breaks.to_string()),
-        (
-            "axis-limit violations",
-            i.axis_limit_violations.to_string(),
-            p.axis_limit_violations.to_string(),
-        ),
-        (
-            "orientation change (mean / max)",
-            "—".into(),
-            format!("{:.1}° / {:.1}°", p.mean_deviation_deg, p.max_deviation_deg),
-        ),
-    ]
 }
 
 /// The page.
@@ -94,7 +42,7 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
         h,
         "<h2>Summary</h2><table id=\"summary\"><tr><th></th><th>input</th><th>plan</th></tr>"
     );
-    for (k, a, b) in rows(&plan.input, &plan.plan) {
+    for (k, a, b) in summary_rows(&plan.input, &plan.plan) {
         let _ = writeln!(h, "<tr><td>{k}</td><td>{a}</td><td>{b}</td></tr>");
     }
     let _ = writeln!(h, "</table>");

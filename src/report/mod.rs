@@ -7,7 +7,7 @@ pub mod plots;
 pub mod scene_glb;
 
 use crate::kinematics::Machine;
-use crate::plan::metrics::tip_speed;
+use crate::plan::metrics::{tip_speed, Metrics};
 use crate::plan::Plan;
 
 /// Per-segment tip speeds (mm/s) of the input and of the plan, over the
@@ -53,4 +53,57 @@ pub fn layer_table(plan: &Plan) -> Vec<(usize, usize, usize)> {
         r.2 += w.residual as usize;
     }
     t
+}
+
+/// The input-vs-plan summary as `(label, input, plan)` rows, shared by the
+/// terminal table and the HTML report.
+pub fn summary_rows(i: &Metrics, p: &Metrics) -> Vec<(&'static str, String, String)> {
+    vec![
+        (
+            "waypoints",
+            i.waypoints.to_string(),
+            p.waypoints.to_string(),
+        ),
+        (
+            "residual collisions",
+            i.residual_collisions.to_string(),
+            p.residual_collisions.to_string(),
+        ),
+        (
+            "colliding edges",
+            i.colliding_edges.to_string(),
+            p.colliding_edges.to_string(),
+        ),
+        (
+            "tip-speed violations",
+            format!("{:.2} %", i.speed_violation_pct),
+            format!("{:.2} %", p.speed_violation_pct),
+        ),
+        (
+            "J = Σ |ΔB| + |ΔC|",
+            format!("{:.0}°", i.j_deg),
+            format!("{:.0}°", p.j_deg),
+        ),
+        (
+            "largest step",
+            format!("{:.1}°", i.max_step_deg),
+            format!("{:.1}°", p.max_step_deg),
+        ),
+        (
+            "singular waypoints",
+            i.singular_waypoints.to_string(),
+            p.singular_waypoints.to_string(),
+        ),
+        ("breaks", i.breaks.to_string(), p.breaks.to_string()),
+        (
+            "axis-limit violations",
+            i.axis_limit_violations.to_string(),
+            p.axis_limit_violations.to_string(),
+        ),
+        (
+            "orientation change (mean / max)",
+            "—".into(),
+            format!("{:.1}° / {:.1}°", p.mean_deviation_deg, p.max_deviation_deg),
+        ),
+    ]
 }

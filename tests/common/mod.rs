@@ -192,3 +192,49 @@ pub fn near_contacts_only(
     }
     near.len()
 }
+
+/// The data set folder (`../shared/datasets/zhang2021`); fails loudly if absent.
+pub fn data() -> std::path::PathBuf {
+    let d = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/datasets/zhang2021");
+    assert!(
+        d.is_dir(),
+        "the data set must sit at {} (see README)",
+        d.display()
+    );
+    d
+}
+
+/// simple_curve with the data-set head and platform, placed as the original
+/// software did (z + 40.5 mm): its toolpath and scene.
+pub fn simple_curve() -> (Toolpath, Scene) {
+    use maamplan::io::{mesh::load_mesh, toolpath::load_toolpath, Placement};
+    let d = data();
+    let place = Placement {
+        y_up: false,
+        offset: [0.0, 0.0, 40.5],
+    };
+    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
+    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
+    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
+    let scene = Scene::build(
+        &tp,
+        &head,
+        &platform,
+        &maamplan::scene::SceneConfig::default(),
+    )
+    .unwrap();
+    (tp, scene)
+}
+
+/// The embedded default job and its scene.
+pub fn default_scene() -> (maamplan::default_job::Job, Scene) {
+    let job = maamplan::default_job::job();
+    let scene = Scene::build(
+        &job.toolpath,
+        &job.head,
+        &job.platform,
+        &maamplan::scene::SceneConfig::default(),
+    )
+    .unwrap();
+    (job, scene)
+}
