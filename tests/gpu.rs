@@ -156,3 +156,33 @@ fn synthetic_part_larger_than_one_binding() {
         queries.len()
     );
 }
+
+#[test]
+fn plans_are_byte_identical_on_gpu_and_cpu() {
+    use maamplan::io::gcode::write_gcode;
+    use maamplan::kinematics::Machine;
+    use maamplan::plan::{plan, PlanOptions};
+    let (job, scene) = default_scene();
+    let Some(g) = gpu(&scene, GpuOptions::default()) else {
+        return;
+    };
+    let m = Machine::default();
+    let run = |b: &dyn Backend| {
+        let p = plan(
+            &scene,
+            &job.toolpath,
+            &m,
+            b,
+            &PlanOptions::default(),
+            &mut |_| {},
+        )
+        .unwrap();
+        write_gcode(&m, &p.waypoints)
+    };
+    let on_gpu = run(&g);
+    let on_cpu = run(&CpuBackend::new(&scene));
+    assert!(
+        on_gpu == on_cpu,
+        "the G-code differs between the gpu and cpu backends"
+    );
+}
