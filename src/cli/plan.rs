@@ -65,6 +65,10 @@ pub struct PlanArgs {
     /// Grow variants ring by ring (paper 002, heuristic 1) instead of sampling.
     #[arg(long)]
     rings: bool,
+    /// Paper 002's interval subsampling for very long paths: plan every
+    /// K-th waypoint first, then the intervals (1 = exact).
+    #[arg(long, default_value_t = 1)]
+    subsample: usize,
     /// Largest move of any head point between two motion checks (mm).
     #[arg(long, default_value_t = 0.5)]
     edge_step: f64,
@@ -137,6 +141,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         },
         edge_step: a.edge_step,
         jump: 5.0,
+        subsample: a.subsample.max(1),
     };
     let pb = if a.quiet {
         indicatif::ProgressBar::hidden()

@@ -34,6 +34,14 @@ pub struct Path {
 /// Shortest path through `cols` (each a list of `(tilt, c)`), avoiding the
 /// `blocked` edges `(column of the edge's end, from node, to node)`.
 pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, usize)>) -> Path {
+    shortest_path_with(cols, &|i, k, j| blocked.contains(&(i, k, j)))
+}
+
+/// [`shortest_path`] with the blocked edges given by a predicate.
+fn shortest_path_with(
+    cols: &[Vec<(f64, f64)>],
+    blocked: &dyn Fn(usize, usize, usize) -> bool,
+) -> Path {
     if cols.is_empty() {
         return Path {
             nodes: Vec::new(),
@@ -56,7 +64,7 @@ pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, 
         for (j, &b) in cols[i].iter().enumerate() {
             let mut best = (bc + BREAK_COST, (bk, true));
             for (k, &a) in cols[i - 1].iter().enumerate() {
-                if blocked.contains(&(i, k, j)) {
+                if blocked(i, k, j) {
                     continue;
                 }
                 let c = prev[k] + weight(a, b);
@@ -92,6 +100,67 @@ pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, 
         nodes,
         breaks,
         cost: total,
+    }
+}
+
+/// Paper 002's heuristic 2 (interval subsampling) for very long paths:
+/// solve the graph of every `k`-th column (and the last) with direct edges,
+/// then each interval between two chosen nodes on its own. Cheaper on
+/// memory, never cheaper in cost than [`shortest_path`]; `k ≤ 1` is exact.
+pub fn shortest_path_subsampled(
+    cols: &[Vec<(f64, f64)>],
+    blocked: &HashSet<(usize, usize, usize)>,
+    k: usize,
+) -> Path {
+    let last = cols.len().saturating_sub(1);
+    if k <= 1 || cols.len() <= k + 1 {
+        return shortest_path(cols, blocked);
+    }
+    let mut picks: Vec<usize> = (0..cols.len()).step_by(k).collect();
+    if picks.last() != Some(&last) {
+        picks.push(last);
+    }
+    let coarse_cols: Vec<Vec<(f64, f64)>> = picks.iter().map(|&i| cols[i].clone()).collect();
+    let coarse = shortest_path(&coarse_cols, &HashSet::new());
+    let mut nodes = vec![0; cols.len()];
+    let mut breaks = vec![false; cols.len()];
+    let mut cost = 0.0;
+    for m in 0..picks.len() - 1 {
+        let (a, b) = (picks[m], picks[m + 1]);
+        let (na, nb) = (coarse.nodes[m], coarse.nodes[m + 1]);
+        // The interval with its ends pinned to the coarse choice; local node
+        // 0 of the end columns stands for the pinned node.
+        let sub: Vec<Vec<(f64, f64)>> = (a..=b)
+            .map(|i| match i {
+                _ if i == a => vec![cols[a][na]],
+                _ if i == b => vec![cols[b][nb]],
+                _ => cols[i].clone(),
+            })
+            .collect();
+        let global = |i: usize, n: usize| {
+            if i == a {
+                na
+            } else if i == b {
+                nb
+            } else {
+                n
+            }
+        };
+        let p = shortest_path_with(&sub, &|l, kk, j| {
+            blocked.contains(&(a + l, global(a + l - 1, kk), global(a + l, j)))
+        });
+        for (l, &n) in p.nodes.iter().enumerate() {
+            nodes[a + l] = global(a + l, n);
+            if l > 0 {
+                breaks[a + l] = p.breaks[l];
+            }
+        }
+        cost += p.cost;
+    }
+    Path {
+        nodes,
+        breaks,
+        cost,
     }
 }
 
@@ -177,6 +246,36 @@ mod tests {
                 }
             }
             assert!((c - p.cost).abs() < 1e-6 * c.max(1.0));
+            // Subsampling: never cheaper than exact, a valid path, exact at k = 1.
+            for k in [1, 2, 3] {
+                let s = shortest_path_subsampled(&cols, &blocked, k);
+                assert_eq!(s.nodes.len(), n);
+                assert!(
+                    s.cost >= p.cost - 1e-6 * p.cost.max(1.0),
+                    "k {k}: {} < {}",
+                    s.cost,
+                    p.cost
+                );
+                if k == 1 {
+                    assert!((s.cost - p.cost).abs() < 1e-6 * p.cost.max(1.0));
+                }
+                let mut c = 0.0;
+                for i in 1..n {
+                    c += if s.breaks[i] {
+                        BREAK_COST
+                    } else {
+                        weight(cols[i - 1][s.nodes[i - 1]], cols[i][s.nodes[i]])
+                    };
+                    if !s.breaks[i] {
+                        assert!(!blocked.contains(&(i, s.nodes[i - 1], s.nodes[i])));
+                    }
+                }
+                assert!(
+                    (c - s.cost).abs() < 1e-6 * c.max(1.0),
+                    "k {k}: path cost {c} vs reported {}",
+                    s.cost
+                );
+            }
         }
     }
 }

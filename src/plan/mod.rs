@@ -61,6 +61,9 @@ pub struct PlanOptions {
     pub edge_step: f64,
     /// Consecutive waypoints farther apart than this start a new section (mm).
     pub jump: f64,
+    /// Paper 002's interval subsampling: solve every `subsample`-th column
+    /// first, then the intervals (1 = exact, the default).
+    pub subsample: usize,
 }
 
 impl Default for PlanOptions {
@@ -72,6 +75,7 @@ impl Default for PlanOptions {
             sampling: Sampling::Random { k: 24 },
             edge_step: 0.5,
             jump: 5.0,
+            subsample: 1,
         }
     }
 }
@@ -387,7 +391,7 @@ pub fn plan(
     let mut verified: Vec<HashSet<(usize, usize, usize)>> = vec![HashSet::new(); sections.len()];
     let mut paths: Vec<graph::Path> = sections
         .par_iter()
-        .map(|r| graph::shortest_path(&cols[r.clone()], &HashSet::new()))
+        .map(|r| graph::shortest_path_subsampled(&cols[r.clone()], &HashSet::new(), opts.subsample))
         .collect();
     for _ in 0..32 {
         let mut moves = Vec::new();
@@ -423,7 +427,11 @@ pub fn plan(
             break;
         }
         for s in dirty {
-            paths[s] = graph::shortest_path(&cols[sections[s].clone()], &blocked[s]);
+            paths[s] = graph::shortest_path_subsampled(
+                &cols[sections[s].clone()],
+                &blocked[s],
+                opts.subsample,
+            );
         }
     }
     for (s, r) in sections.iter().enumerate() {
