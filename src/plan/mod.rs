@@ -254,18 +254,15 @@ pub fn plan(
     let mut layer_of = Vec::with_capacity(n_wp);
     let mut sections: Vec<std::ops::Range<usize>> = Vec::new();
     for (k, layer) in toolpath.layers.iter().enumerate() {
-        let start = pos.len();
-        for (j, w) in layer.waypoints.iter().enumerate() {
+        // A section starts with each layer and after each jump.
+        let mut start = pos.len();
+        for w in &layer.waypoints {
             let p = w.pos.map(|x| x as f64);
-            if j > 0 {
+            if pos.len() > start {
                 let q: [f64; 3] = pos[pos.len() - 1];
                 if (p[0] - q[0]).hypot(p[1] - q[1]).hypot(p[2] - q[2]) > opts.jump {
-                    sections.push(
-                        sections
-                            .last()
-                            .map_or(start, |r: &std::ops::Range<usize>| r.end.max(start))
-                            ..pos.len(),
-                    );
+                    sections.push(start..pos.len());
+                    start = pos.len();
                 }
             }
             pos.push(p);
@@ -274,9 +271,8 @@ pub fn plan(
             n0.push(d.map(|x| x / l));
             layer_of.push(k);
         }
-        let s = sections.last().map_or(start, |r| r.end.max(start));
-        if s < pos.len() {
-            sections.push(s..pos.len());
+        if start < pos.len() {
+            sections.push(start..pos.len());
         }
     }
 
@@ -318,11 +314,8 @@ pub fn plan(
         .collect();
     let v = ctx.check_configs(&items, &pos)?;
     let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); n_wp];
-    let mut base_hit = vec![false; n_wp];
     for (k, &(i, b)) in items.iter().enumerate() {
-        if v[k] {
-            base_hit[i] = true;
-        } else {
+        if !v[k] {
             cols[i].push(b);
             if ctx.symmetric {
                 cols[i].push(base[i][1]);
