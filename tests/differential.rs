@@ -99,10 +99,12 @@ fn fully_contained_triangles_collide() {
     let inside = Query {
         pose: pose([0.0, 0.0, 20.0], [0.0, 0.0, 1.0]),
         cutoff: 2,
+        margin: 0.0,
     };
     let above = Query {
         pose: pose([0.0, 0.0, 32.0], [0.0, 0.0, 1.0]),
         cutoff: 2,
+        margin: 0.0,
     };
     let not_yet = Query {
         cutoff: 1,
@@ -145,6 +147,7 @@ fn coplanar_and_edge_touching_contacts() {
     let at = |tip: [f32; 3], axis: [f32; 3]| Query {
         pose: pose(tip, axis),
         cutoff: 2,
+        margin: 0.0,
     };
     let queries = [
         // Head's top face exactly on the square's plane, overlapping: coplanar contact.
@@ -195,7 +198,13 @@ fn stamps_cut_a_layer_in_half() {
     let scene = Scene::build(&tp, &head, &platform, &cfg(0.3)).unwrap();
     // Head lowered 0.5 mm into the layer at x = 5 (waypoint 15).
     let p = pose([5.0, 0.0, 0.5], [0.0, 0.0, 1.0]);
-    let queries: Vec<Query> = (1..=22).map(|cutoff| Query { pose: p, cutoff }).collect();
+    let queries: Vec<Query> = (1..=22)
+        .map(|cutoff| Query {
+            pose: p,
+            cutoff,
+            margin: 0.0,
+        })
+        .collect();
     let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();
     let first_hit = truth
         .iter()

@@ -45,6 +45,7 @@ fn gcode_queries(m: &Machine, gcode: &str, scene: &Scene) -> Vec<Query> {
             Query {
                 pose: head_pose(m.rotary, p, a.tilt, a.c),
                 cutoff: q.cutoff,
+                margin: 0.0,
             }
         })
         .collect()

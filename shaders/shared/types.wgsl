@@ -29,7 +29,7 @@ struct PartNode {
 struct Query {
     rows: array<vec4<f32>, 3>,
     cutoff: u32,
-    pad0: u32,
+    margin: f32,
     pad1: u32,
     pad2: u32,
 }

@@ -82,6 +82,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
                     Query {
                         pose: head_pose(machine.rotary, p, axes.tilt, axes.c),
                         cutoff: q.cutoff,
+                        margin: q.margin,
                     }
                 })
                 .collect();
@@ -99,6 +100,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
                     Query {
                         pose: Pose::from_axis(q.pose.tip, r),
                         cutoff: q.cutoff,
+                        margin: q.margin,
                     }
                 })
                 .collect();

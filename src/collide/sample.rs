@@ -26,6 +26,7 @@ pub fn tilted_queries(waypoints: &[Query], count: usize, tilted: usize) -> Vec<Q
             out.push(Query {
                 pose: q.pose.tilted(tilt, azimuth),
                 cutoff: q.cutoff,
+                margin: q.margin,
             });
         }
     }

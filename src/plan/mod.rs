@@ -168,6 +168,7 @@ impl Ctx<'_> {
             .map(|&(i, (t, c))| Query {
                 pose: head_pose(rot, pos[i], t, c),
                 cutoff: self.scene.waypoint_queries[i].cutoff,
+                margin: 0.0,
             })
             .collect();
         Ok(self.backend.evaluate(&queries)?)

@@ -48,6 +48,7 @@ pub fn between(
         out.push(Query {
             pose: head_pose(m.rotary, p, tilt, c),
             cutoff,
+            margin: 0.0,
         });
     }
 }

@@ -106,8 +106,10 @@ pub struct GpuQuery {
     pub rows: [[f32; 4]; 3],
     /// Part triangles with `stamp < cutoff` exist for this query.
     pub cutoff: u32,
+    /// Safety margin (mm): closer than this counts as a collision.
+    pub margin: f32,
     /// Padding to 16-byte multiples.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
 /// The head's scalar parameters, 128 bytes.

@@ -95,6 +95,9 @@ pub struct Query {
     pub pose: Pose,
     /// Cutoff stamp.
     pub cutoff: u32,
+    /// Safety margin (mm): the query collides when any existing triangle
+    /// comes closer than this to the (clearance-lifted) head; 0 = touch.
+    pub margin: f32,
 }
 
 impl Query {
@@ -109,7 +112,8 @@ impl Query {
                 [c[2][0], c[2][1], c[2][2], t[2]],
             ],
             cutoff: self.cutoff,
-            _pad: [0; 3],
+            margin: self.margin,
+            _pad: [0; 2],
         }
     }
 }
@@ -201,6 +205,7 @@ impl Scene {
             waypoint_queries.push(Query {
                 pose: Pose::from_axis(w.pos, w.dir),
                 cutoff: g as u32 + 1,
+                margin: 0.0,
             });
             waypoint_layers.push(k as u32);
         }

@@ -122,7 +122,11 @@ pub fn random_queries(rng: &mut ChaCha8Rng, scene: &Scene, count: usize) -> Vec<
             } else {
                 rng.random_range(1..=n + 1)
             };
-            Query { pose, cutoff }
+            Query {
+                pose,
+                cutoff,
+                margin: 0.0,
+            }
         })
         .collect()
 }
