@@ -24,6 +24,7 @@ pub mod default_job;
 pub mod generate;
 pub mod geometry;
 pub mod io;
+pub mod job;
 pub mod kinematics;
 pub mod plan;
 pub mod report;

@@ -31,15 +31,28 @@ fn main() -> ExitCode {
     }
 }
 
-/// 2 when the user can fix it (inputs, arguments), 1 otherwise.
+/// 2 when the user can fix it (inputs, arguments), 3 when `--strict`
+/// refused to skip waypoints, 1 otherwise.
 fn exit_code(e: &anyhow::Error) -> u8 {
     for cause in e.chain() {
+        if cause.is::<cli::plan::StrictError>() {
+            return 3;
+        }
         if cause.is::<InputError>()
             || cause.is::<cli::UsageError>()
             || cause.is::<maamplan::kinematics::MachineError>()
             || cause.is::<maamplan::generate::GenerateError>()
         {
             return 2;
+        }
+        if let Some(j) = cause.downcast_ref::<maamplan::job::JobError>() {
+            return match j {
+                maamplan::job::JobError::Scene {
+                    source: SceneError::Internal(_),
+                    ..
+                } => 1,
+                _ => 2,
+            };
         }
         if let Some(s) = cause.downcast_ref::<SceneError>() {
             return if matches!(s, SceneError::Internal(_)) {

@@ -238,15 +238,44 @@ fn slice_then_plan_end_to_end() {
     .unwrap();
     assert_eq!(p.waypoints.len(), back.waypoint_count());
     assert!(!stages.is_empty());
+    assert_plan_is_printable(&p, &Machine::default());
+    // Planar layers need no tilt: the nozzle stays along the slicing
+    // direction wherever nothing forces it away.
+    let along = p
+        .waypoints
+        .iter()
+        .filter(|w| {
+            w.skipped.is_none()
+                && (0..3).map(|k| w.n[k] * d[k]).sum::<f64>() > (5f64.to_radians()).cos()
+        })
+        .count();
+    assert!(
+        along * 10 >= p.waypoints.len() * 9,
+        "only {along} of {} waypoints keep the slicing direction",
+        p.waypoints.len()
+    );
+}
+
+/// What every plan must be: no pose or move within the margin, every
+/// waypoint with a bead visited, the tip on its bead, no travel turning C
+/// more than half a turn, within the machine's ranges.
+fn assert_plan_is_printable(p: &maamplan::plan::Plan, m: &Machine) {
+    assert_eq!(p.plan.residual_collisions, 0);
+    assert_eq!(p.plan.colliding_edges, 0);
+    assert_eq!(
+        p.plan.skipped_waypoints - p.plan.isolated_waypoints,
+        0,
+        "{:?}",
+        p.warnings
+    );
+    assert_eq!(p.plan.axis_limit_violations, 0);
+    assert!(p.plan.tip_deviation_max_mm <= m.tip_tolerance + 1e-9);
+    assert!(p.plan.travel_c_max_deg <= 180.0 + 1e-6);
+    assert!(p.plan.program_moves > p.waypoints.len());
     assert!(p
         .waypoints
         .iter()
         .all(|w| w.axes.xyz.iter().all(|x| x.is_finite())));
-    eprintln!(
-        "slice → plan: {} waypoints, {} residual collisions",
-        p.waypoints.len(),
-        p.waypoints.iter().filter(|w| w.residual).count()
-    );
 }
 
 /// A grid surface over [-a, a]² with a centre vertex per cell (symmetric
@@ -426,10 +455,32 @@ fn isoplanar_then_plan_end_to_end() {
     )
     .unwrap();
     assert_eq!(p.waypoints.len(), r.toolpath.waypoint_count());
-    assert!(p
-        .waypoints
-        .iter()
-        .all(|w| w.axes.xyz.iter().all(|x| x.is_finite())));
+    assert_plan_is_printable(&p, &Machine::default());
+    // Unsmoothed, the nozzle follows the surface normal: nothing collides,
+    // so orientations move only in the singular region (α) and to spread
+    // fast turns (the spread tolerance).
+    let opts = PlanOptions {
+        smoothing: maamplan::plan::smooth::Smoothing::None,
+        ..PlanOptions::default()
+    };
+    let raw = plan(
+        &scene,
+        &r.toolpath,
+        &Machine::default(),
+        &backend,
+        &opts,
+        &mut |_| {},
+    )
+    .unwrap();
+    assert_plan_is_printable(&raw, &Machine::default());
+    let bound = (opts.alpha + opts.spread_tolerance).to_degrees() + 0.01;
+    assert!(
+        raw.plan.mean_deviation_deg < 1.0 && raw.plan.max_deviation_deg <= bound,
+        "orientation change mean {:.2}°, max {:.2}° (bound {bound:.2}°)",
+        raw.plan.mean_deviation_deg,
+        raw.plan.max_deviation_deg
+    );
+    assert!(p.plan.speed_violation_pct <= p.input.speed_violation_pct);
 }
 
 fn cli(args: &[&str]) -> (i32, String) {

@@ -159,7 +159,7 @@ fn synthetic_part_larger_than_one_binding() {
 
 #[test]
 fn plans_are_byte_identical_on_gpu_and_cpu() {
-    use maamplan::io::gcode::write_gcode;
+    use maamplan::io::gcode::{write_gcode, GcodeHeader};
     use maamplan::kinematics::Machine;
     use maamplan::plan::{plan, PlanOptions};
     let (job, scene) = default_scene();
@@ -177,7 +177,7 @@ fn plans_are_byte_identical_on_gpu_and_cpu() {
             &mut |_| {},
         )
         .unwrap();
-        write_gcode(&m, &p.waypoints)
+        write_gcode(&m, &p.program, &GcodeHeader::default())
     };
     let on_gpu = run(&g);
     let on_cpu = run(&CpuBackend::new(&scene));

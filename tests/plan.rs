@@ -4,13 +4,18 @@
 
 mod common;
 
-use common::{default_scene, simple_curve};
+use common::default_scene;
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::Backend;
-use maamplan::io::gcode::{parse_g1, rotary_motion, write_gcode};
-use maamplan::kinematics::{forward, head_pose, Axes, Machine};
+use maamplan::io::gcode::{
+    axes_of, parse_g1, parse_moves, rotary_motion, write_gcode, GcodeHeader,
+};
+use maamplan::io::Placement;
+use maamplan::job::{Job, JobSpec};
+use maamplan::kinematics::Machine;
+use maamplan::plan::program::MoveKind;
 use maamplan::plan::{plan, PlanOptions};
-use maamplan::scene::{Query, Scene};
+use maamplan::scene::Query;
 
 use common::data;
 
@@ -29,36 +34,37 @@ fn reference_gcode_rotary_motion() {
     assert!((max - 98.0).abs() < 1.0, "max step {max}");
 }
 
-/// Poses of every `G1 X` line of `gcode` under machine `m`, with the
-/// scene's cutoffs.
-fn gcode_queries(m: &Machine, gcode: &str, scene: &Scene) -> Vec<Query> {
-    parse_g1(gcode)
-        .iter()
-        .zip(&scene.waypoint_queries)
-        .map(|(g, q)| {
-            let a = Axes {
-                xyz: [g[0], g[1], g[2]],
-                tilt: g[3].to_radians(),
-                c: g[4].to_radians(),
-            };
-            let (p, _) = forward(m, &a);
-            Query {
-                pose: head_pose(m.rotary, p, a.tilt, a.c),
-                cutoff: q.cutoff,
-                margin: 0.0,
-            }
-        })
-        .collect()
+/// simple_curve loaded the way the CLI loads it (the data set's
+/// conventions applied), with the data-set head and platform.
+fn simple_curve_job() -> Job {
+    let d = data();
+    Job::load(&JobSpec {
+        toolpath: Some(d.join("simple_curve")),
+        head: Some(d.join("extruderHead.obj")),
+        platform: Some(d.join("printingPlatform.obj")),
+        placement: Placement {
+            y_up: false,
+            offset: [0.0, 0.0, 40.5],
+        },
+        clearance: 0.3,
+        ..JobSpec::default()
+    })
+    .unwrap()
 }
 
 #[test]
 fn simple_curve_plan_meets_the_paper() {
-    let (tp, scene) = simple_curve();
+    let job = simple_curve_job();
+    assert!(
+        job.flipped_layers.is_empty(),
+        "no simple_curve layer points down"
+    );
+    let scene = &job.scene;
     let machine = Machine::default();
-    let cpu = CpuBackend::new(&scene);
+    let cpu = CpuBackend::new(scene);
     let p = plan(
-        &scene,
-        &tp,
+        scene,
+        &job.toolpath,
         &machine,
         &cpu,
         &PlanOptions::default(),
@@ -76,38 +82,63 @@ fn simple_curve_plan_meets_the_paper() {
     );
     assert!(p.input.residual_collisions > 0 && p.input.singular_waypoints > 10_000);
 
+    // The written program, re-checked: nothing within the margin.
     assert_eq!(p.plan.residual_collisions, 0);
     assert_eq!(p.plan.colliding_edges, 0);
+    assert!(p.plan.program_moves > p.waypoints.len());
+    assert_eq!(p.plan.skipped_waypoints, 0);
     assert_eq!(p.plan.breaks, 0);
     assert!(
         p.plan.speed_violation_pct < 0.14,
         "plan {}",
         p.plan.speed_violation_pct
     );
+    // No worse than before the program was checked move by move (24,614°,
+    // 10.9°), and far below the reference G-code.
+    assert!(p.plan.j_deg <= 24_614.5, "J {}", p.plan.j_deg);
+    assert!(p.plan.max_step_deg <= 10.95, "step {}", p.plan.max_step_deg);
+    assert!(p.plan.j_deg < ref_j && p.plan.max_step_deg < ref_max);
+    // The tip stays on its bead, travels take the short way round, and
+    // layer heights are measured, not clamped.
+    assert!(p.plan.tip_deviation_max_mm <= machine.tip_tolerance);
+    assert!(p.plan.travel_c_max_deg <= 180.0);
     assert!(
-        p.plan.j_deg < ref_j,
-        "J {} vs reference {ref_j}",
-        p.plan.j_deg
-    );
-    assert!(
-        p.plan.max_step_deg < ref_max,
-        "max step {} vs reference {ref_max}",
-        p.plan.max_step_deg
+        p.plan.height_clamped_pct < 1.0,
+        "{}",
+        p.plan.height_clamped_pct
     );
 
-    // The written G-code parses back to the planned axes, and re-checking
-    // its poses finds no collision.
-    let gcode = write_gcode(&machine, &p.waypoints);
-    let back = parse_g1(&gcode);
-    assert_eq!(back.len(), p.waypoints.len());
-    for (g, w) in back.iter().zip(&p.waypoints) {
-        let a = &w.axes;
-        for (gk, ak) in g.iter().zip(&a.xyz) {
-            assert!((gk - ak).abs() <= 0.0005 + 1e-9);
+    // The G-code parses back to the program's moves, value for value.
+    let gcode = write_gcode(&machine, &p.program, &GcodeHeader::default());
+    let back = parse_moves(&gcode);
+    let all = p.program.moves(&machine);
+    // (A repeated waypoint is a print move going nowhere: written, but no
+    // motion for a controller.)
+    let moves: Vec<_> = all
+        .iter()
+        .copied()
+        .filter(|(from, mv)| {
+            *from != mv.to || matches!(mv.kind, MoveKind::Retract | MoveKind::Prime)
+        })
+        .collect();
+    assert_eq!(back.len(), moves.len());
+    for (g, (_, mv)) in back.iter().zip(&moves) {
+        let w = axes_of(&g.to);
+        for k in 0..3 {
+            assert!((w.xyz[k] - mv.to.xyz[k]).abs() <= 1e-9, "line {}", g.line);
         }
-        assert!((g[3] - a.tilt.to_degrees()).abs() <= 0.0005 + 1e-9);
-        assert!((g[4] - a.c.to_degrees()).abs() <= 0.0005 + 1e-9);
-        assert!((g[5] - w.e).abs() <= 0.0005 + 1e-9);
+        assert!((w.tilt - mv.to.tilt).abs() < 1e-9 && (w.c - mv.to.c).abs() < 1e-9);
+        assert!(
+            (g.e - mv.e).abs() <= 1e-6,
+            "line {}: E {} vs {}",
+            g.line,
+            g.e,
+            mv.e
+        );
+        // Only printing and priming push filament.
+        if g.de > 0.0 {
+            assert!(matches!(mv.kind, MoveKind::Print | MoveKind::Prime));
+        }
     }
     let (j, max) = rotary_motion(&gcode);
     assert!(
@@ -116,14 +147,22 @@ fn simple_curve_plan_meets_the_paper() {
         p.plan.j_deg
     );
     assert!(max <= p.plan.max_step_deg + 0.01);
-    let hits = cpu
-        .evaluate(&gcode_queries(&machine, &gcode, &scene))
-        .unwrap();
-    assert_eq!(
-        hits.iter().filter(|&&h| h).count(),
-        0,
-        "written plan re-checked"
-    );
+
+    // Independently of the planner's bookkeeping: every waypoint the
+    // program reaches, posed by its written axes, touches nothing.
+    let queries: Vec<Query> = all
+        .iter()
+        .filter_map(|(_, mv)| {
+            mv.waypoint.map(|g| Query {
+                pose: machine.pose(&mv.to),
+                cutoff: g as u32 + 1,
+                margin: 0.0,
+            })
+        })
+        .collect();
+    assert_eq!(queries.len(), p.waypoints.len());
+    let hits = cpu.evaluate(&queries).unwrap();
+    assert_eq!(hits.iter().filter(|&&h| h).count(), 0);
 }
 
 #[test]
@@ -149,6 +188,7 @@ fn default_job_plan_removes_collisions() {
     );
     assert_eq!(p.plan.residual_collisions, 0);
     assert_eq!(p.plan.colliding_edges, 0);
+    assert_eq!(p.plan.skipped_waypoints, 0);
     assert!(p.plan.speed_violation_pct < p.input.speed_violation_pct);
     assert!(p.plan.max_step_deg < p.input.max_step_deg);
 }
@@ -186,8 +226,22 @@ fn plan_command_writes_its_three_files() {
         csv.lines().count(),
         1 + r["plan"]["waypoints"].as_u64().unwrap() as usize
     );
+    assert!(r["flipped_layers"].as_array().unwrap().is_empty());
+    assert!(r["skipped"].as_array().unwrap().is_empty());
+    assert_eq!(r["margin"], 0.05);
+    // The header names maamplan's version, the machine and the command.
     let g = std::fs::read_to_string(out.join("toolpath.gcode")).unwrap();
-    assert!(g.starts_with("G90\n") && g.trim_end().ends_with("M30"));
+    let head: Vec<&str> = g.lines().take_while(|l| l.starts_with(';')).collect();
+    assert!(head[0].contains(concat!("maamplan ", env!("CARGO_PKG_VERSION"))));
+    assert!(head
+        .iter()
+        .any(|l| l.starts_with("; machine: configuration III BC")));
+    assert!(head
+        .iter()
+        .any(|l| l.starts_with("; command: ") && l.contains(" plan ")));
+    assert!(g.contains("\nG90\n") && g.trim_end().ends_with("M30"));
+    // Feeds from the machine file: print 25 mm/s, travel 87.5 mm/s.
+    assert!(g.contains(" F1500") && g.contains(" F5250"));
     // Bad machine file: one line, exit 2, nothing written.
     let bad = dir.path().join("m.toml");
     std::fs::write(&bad, "configuration = \"IV\"\n").unwrap();

@@ -1,13 +1,15 @@
-//! `maamplan check`: every waypoint in its own orientation, one verdict each,
-//! counted per layer.
+//! `maamplan check`: every waypoint's head pose — as the machine poses it,
+//! the same pose `plan` starts from — or a written plan's poses and
+//! printing moves, one verdict each, counted per layer.
 
-use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs, UsageError};
+use super::{progress, write_json, BackendKind, SceneArgs, UsageError};
 use anyhow::Result;
 use clap::Args;
-use maamplan::geometry::Pose;
-use maamplan::io::plan_csv::read_plan_axes;
-use maamplan::kinematics::{forward, head_pose, load_machine, Axes, Machine};
-use maamplan::scene::Query;
+use maamplan::io::plan_csv::read_plan;
+use maamplan::job::Job;
+use maamplan::kinematics::{load_machine, Axes, Machine};
+use maamplan::plan::motion::{tip_subdivision, MoveSpec, Prover};
+use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -20,171 +22,250 @@ pub struct CheckArgs {
     /// Collision evaluator.
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
+    /// Machine file: how the machine poses the head [default: the built-in
+    /// machine; `plan --write-machine` shows it].
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// Safety margin: a pose collides when anything comes closer than this
+    /// to the head (mm) [default: the machine file's, 0.05; 0 = touching].
+    #[arg(long)]
+    margin: Option<f64>,
+    /// Check a written plan instead: the poses of `plan.csv`'s machine axes
+    /// and the printing moves between consecutive rows, as `plan` writes
+    /// them.
+    #[arg(long, value_name = "PLAN_CSV")]
+    plan: Option<PathBuf>,
     /// Also write the results as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Stress test: rotate every nozzle direction by DEG about the x axis
-    /// before checking (as `shared/tools/fcl_check.py --tilt`).
-    #[arg(
-        long,
-        value_name = "DEG",
-        allow_hyphen_values = true,
-        conflicts_with = "plan"
-    )]
-    tilt: Option<f32>,
-    /// Check a written plan instead: the head poses that `plan.csv`'s machine
-    /// axes give (forward kinematics of `--machine`), one row per waypoint.
-    #[arg(long, value_name = "PLAN_CSV")]
-    plan: Option<PathBuf>,
     /// Print only errors.
     #[arg(short, long)]
     quiet: bool,
     /// Print scene details too.
     #[arg(short, long, conflicts_with = "quiet")]
     verbose: bool,
-    /// Machine file for `--plan` [default: the default machine].
-    #[arg(long, requires = "plan")]
-    machine: Option<PathBuf>,
+}
+
+/// What was checked: per waypoint, its pose's verdict (`None`: skipped),
+/// and the moves into it (`None`: none checked).
+struct Verdicts {
+    poses: Vec<Option<bool>>,
+    moves: Vec<Option<bool>>,
 }
 
 /// Run `check`.
 pub fn run(a: CheckArgs) -> Result<()> {
-    let loaded = a.scene.load()?;
-    let scene = &loaded.scene;
+    let machine = match &a.machine {
+        Some(p) => load_machine(p)?,
+        None => Machine::default(),
+    };
+    let margin = a.margin.unwrap_or(machine.margin);
+    if !(margin.is_finite() && (0.0..10.0).contains(&margin)) {
+        return Err(UsageError("--margin must be between 0 and 10 mm".into()).into());
+    }
+    let job = a.scene.load()?;
+    let scene = &job.scene;
     let backend = a.backend.build(scene, !a.quiet)?;
-    let tilted: Vec<Query>;
-    let queries = match (a.tilt, &a.plan) {
-        (_, Some(csv)) => {
-            let machine = match &a.machine {
-                Some(p) => load_machine(p)?,
-                None => Machine::default(),
-            };
-            let rows = read_plan_axes(csv)?;
-            if rows.len() != scene.waypoint_queries.len() {
-                return Err(UsageError(format!(
-                    "{}: {} rows but the toolpath has {} waypoints: check the plan of this toolpath",
-                    csv.display(),
-                    rows.len(),
-                    scene.waypoint_queries.len()
-                ))
-                .into());
+    let prover = Prover::new(
+        &machine,
+        backend.as_ref(),
+        head_reach(scene),
+        margin,
+        PlanOptions::default().edge_step,
+    );
+    let n = job.toolpath.waypoint_count();
+    let t0 = Instant::now();
+    let pb = progress(n as u64, "checking");
+    let v = match &a.plan {
+        Some(csv) => check_plan(&job, &machine, &prover, csv)?,
+        None => {
+            let pos: Vec<[f64; 3]> = job
+                .toolpath
+                .iter()
+                .map(|(_, w)| w.pos.map(|x| x as f64))
+                .collect();
+            let dirs: Vec<[f64; 3]> = job
+                .toolpath
+                .iter()
+                .map(|(_, w)| w.dir.map(|x| x as f64))
+                .collect();
+            let axes = input_axes(
+                &machine,
+                &pos,
+                &dirs,
+                &runs(&job.toolpath, PlanOptions::default().jump),
+            );
+            let items: Vec<(Axes, u32)> = axes
+                .iter()
+                .enumerate()
+                .map(|(g, a)| (*a, g as u32 + 1))
+                .collect();
+            let hits = prover.poses_at(&items, margin)?;
+            Verdicts {
+                poses: hits.into_iter().map(Some).collect(),
+                moves: vec![None; n],
             }
-            tilted = rows
-                .iter()
-                .zip(&scene.waypoint_queries)
-                .map(|(r, q)| {
-                    let axes = Axes {
-                        xyz: [r[0], r[1], r[2]],
-                        tilt: r[3].to_radians(),
-                        c: r[4].to_radians(),
-                    };
-                    let (p, _) = forward(&machine, &axes);
-                    Query {
-                        pose: head_pose(machine.rotary, p, axes.tilt, axes.c),
-                        cutoff: q.cutoff,
-                        margin: q.margin,
-                    }
-                })
-                .collect();
-            &tilted
-        }
-        (None, None) => &scene.waypoint_queries,
-        (Some(deg), None) => {
-            let (s, c) = deg.to_radians().sin_cos();
-            tilted = scene
-                .waypoint_queries
-                .iter()
-                .map(|q| {
-                    let n = q.pose.axis();
-                    let r = [n[0], c * n[1] - s * n[2], s * n[1] + c * n[2]];
-                    Query {
-                        pose: Pose::from_axis(q.pose.tip, r),
-                        cutoff: q.cutoff,
-                        margin: q.margin,
-                    }
-                })
-                .collect();
-            &tilted
         }
     };
-    let t0 = Instant::now();
-    let pb = progress(queries.len() as u64, "checking");
-    let verdicts = evaluate_with_progress(backend.as_ref(), queries, &pb)?;
+    pb.finish_and_clear();
     let seconds = t0.elapsed().as_secs_f64();
 
-    let layers = &loaded.toolpath.layers;
-    let mut per_layer = vec![(0usize, 0usize); layers.len()];
-    for (i, &hit) in verdicts.iter().enumerate() {
+    let layers = &job.toolpath.layers;
+    // Per layer: waypoints, colliding poses, colliding moves.
+    let mut per_layer = vec![(0usize, 0usize, 0usize); layers.len()];
+    for (i, (p, m)) in v.poses.iter().zip(&v.moves).enumerate() {
         let l = scene.waypoint_layers[i] as usize;
         per_layer[l].0 += 1;
-        per_layer[l].1 += hit as usize;
+        per_layer[l].1 += (*p == Some(true)) as usize;
+        per_layer[l].2 += (*m == Some(true)) as usize;
     }
     let colliding: usize = per_layer.iter().map(|p| p.1).sum();
+    let colliding_moves: usize = per_layer.iter().map(|p| p.2).sum();
+    let moves_checked = v.moves.iter().filter(|m| m.is_some()).count();
 
     if let Some(path) = &a.json {
-        write_report(
-            path,
-            &loaded,
-            backend.name(),
-            seconds,
-            &verdicts,
-            &per_layer,
-        )?;
+        let doc = json!({
+            "source": job.source,
+            "waypoints": n,
+            "colliding": colliding,
+            "moves": moves_checked,
+            "colliding_moves": colliding_moves,
+            "margin": margin,
+            "backend": backend.name(),
+            "seconds": seconds,
+            "flipped_layers": job.flipped_names(),
+            "layers": layers.iter().zip(&per_layer).enumerate().map(|(i, (l, (w, c, cm)))| json!({
+                "index": i, "name": l.name, "waypoints": w, "colliding": c, "colliding_moves": cm,
+            })).collect::<Vec<_>>(),
+            "colliding_waypoints": v.poses.iter().enumerate().filter(|(_, h)| **h == Some(true)).map(|(i, _)| i).collect::<Vec<_>>(),
+            "colliding_moves_into": v.moves.iter().enumerate().filter(|(_, h)| **h == Some(true)).map(|(i, _)| i).collect::<Vec<_>>(),
+        });
+        write_json(path, &doc)?;
     }
     if a.quiet {
         return Ok(());
     }
     if a.verbose {
         println!(
-            "scene: {} triangles ({} BVH nodes), head {} triangles, grid {:?} cells of {:.3} mm, tolerance {:.1e} mm",
+            "scene: {} triangles ({} BVH nodes), head {} triangles, grid {:?} cells of {:.3} mm, tolerance {:.1e} mm; {} collision queries",
             scene.triangle_count(),
             scene.part_nodes.len(),
             scene.head.triangles.len(),
             scene.head.params.grid_dims,
             scene.head.params.cell,
-            scene.tol
+            scene.tol,
+            prover.queries()
         );
     }
-    println!("{:>8} {:>10} {:>10}", "layer", "waypoints", "colliding");
-    for (l, (n, c)) in layers.iter().zip(&per_layer) {
-        println!("{:>8} {:>10} {:>10}", l.name, n, c);
+    if !job.flipped_layers.is_empty() {
+        println!(
+            "reversed the nozzle directions of {} layer(s) that mostly pointed down: {}",
+            job.flipped_layers.len(),
+            job.flipped_names().join(", ")
+        );
     }
+    let with_moves = a.plan.is_some();
+    if with_moves {
+        println!(
+            "{:>8} {:>10} {:>10} {:>10}",
+            "layer", "waypoints", "colliding", "moves"
+        );
+    } else {
+        println!("{:>8} {:>10} {:>10}", "layer", "waypoints", "colliding");
+    }
+    for (l, (w, c, cm)) in layers.iter().zip(&per_layer) {
+        if with_moves {
+            println!("{:>8} {:>10} {:>10} {:>10}", l.name, w, c, cm);
+        } else {
+            println!("{:>8} {:>10} {:>10}", l.name, w, c);
+        }
+    }
+    let moves_note = if with_moves {
+        format!(", {colliding_moves} of {moves_checked} printing moves")
+    } else {
+        String::new()
+    };
     println!(
-        "{}: {} of {} waypoints collide ({:.2} %) — backend {}, {:.3} s ({:.0} poses/s), scene {} triangles built in {:.2} s",
-        loaded.source,
+        "{}: {} of {} waypoints come within {} mm ({:.2} %){moves_note} — backend {}, {:.3} s, scene {} triangles built in {:.2} s",
+        job.source,
         colliding,
-        verdicts.len(),
-        100.0 * colliding as f64 / verdicts.len().max(1) as f64,
+        n,
+        margin,
+        100.0 * colliding as f64 / n.max(1) as f64,
         backend.name(),
         seconds,
-        verdicts.len() as f64 / seconds.max(1e-9),
         scene.triangle_count(),
-        loaded.seconds,
+        job.seconds,
     );
     Ok(())
 }
 
-/// The `--json` document.
-fn write_report(
-    path: &std::path::Path,
-    loaded: &super::Loaded,
-    backend: &str,
-    seconds: f64,
-    verdicts: &[bool],
-    per_layer: &[(usize, usize)],
-) -> Result<()> {
-    let layers = &loaded.toolpath.layers;
-    let colliding: usize = per_layer.iter().map(|p| p.1).sum();
-    let v = json!({
-        "source": loaded.source,
-        "waypoints": verdicts.len(),
-        "colliding": colliding,
-        "backend": backend,
-        "seconds": seconds,
-        "layers": layers.iter().zip(per_layer).enumerate().map(|(i, (l, (n, c)))| json!({
-            "index": i, "name": l.name, "waypoints": n, "colliding": c,
-        })).collect::<Vec<_>>(),
-        "colliding_waypoints": verdicts.iter().enumerate().filter(|(_, &h)| h).map(|(i, _)| i).collect::<Vec<_>>(),
-    });
-    write_json(path, &v)
+/// The poses of a written plan's rows and the printing moves between
+/// consecutive visited rows (split for the tip tolerance exactly as `plan`
+/// writes them).
+fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) -> Result<Verdicts> {
+    let rows = read_plan(csv)?;
+    let n = job.toolpath.waypoint_count();
+    if rows.len() != n {
+        return Err(UsageError(format!(
+            "{}: {} rows but the toolpath has {} waypoints: check the plan of this toolpath",
+            csv.display(),
+            rows.len(),
+            n
+        ))
+        .into());
+    }
+    let axes: Vec<Option<Axes>> = rows
+        .iter()
+        .map(|r| {
+            r.axes.map(|v| Axes {
+                xyz: [v[0], v[1], v[2]],
+                tilt: v[3].to_radians(),
+                c: v[4].to_radians(),
+            })
+        })
+        .collect();
+    let items: Vec<(usize, Axes)> = axes
+        .iter()
+        .enumerate()
+        .filter_map(|(g, a)| a.map(|a| (g, a)))
+        .collect();
+    let pose_hits = prover.poses_at(
+        &items
+            .iter()
+            .map(|(g, a)| (*a, *g as u32 + 1))
+            .collect::<Vec<_>>(),
+        prover.margin,
+    )?;
+    let mut poses = vec![None; n];
+    for ((g, _), h) in items.iter().zip(pose_hits) {
+        poses[*g] = Some(h);
+    }
+    let mut specs = Vec::new();
+    let mut owner = Vec::new();
+    for g in 1..n {
+        let (Some(a), Some(b)) = (axes[g - 1], axes[g]) else {
+            continue;
+        };
+        if rows[g].travel_before {
+            continue;
+        }
+        let mut from = a;
+        for to in tip_subdivision(m, &a, &b, m.tip_tolerance) {
+            specs.push(MoveSpec {
+                from,
+                to,
+                cutoff: g as u32,
+            });
+            owner.push(g);
+            from = to;
+        }
+    }
+    let hits = prover.moves(&specs)?;
+    let mut moves = vec![None; n];
+    for (&g, h) in owner.iter().zip(hits) {
+        let e = moves[g].get_or_insert(false);
+        *e |= h;
+    }
+    Ok(Verdicts { poses, moves })
 }

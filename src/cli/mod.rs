@@ -5,24 +5,19 @@ mod bench;
 mod check;
 mod info;
 mod isoplanar;
-mod plan;
+pub mod plan;
 mod slice;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
 use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
-use maamplan::default_job;
-use maamplan::geometry::{Aabb, Mesh};
-use maamplan::io::mesh::load_mesh;
-use maamplan::io::toolpath::load_toolpath;
 use maamplan::io::Placement;
-use maamplan::scene::{HeadConfig, Scene, SceneConfig};
-use maamplan::toolpath::Toolpath;
+use maamplan::job::{Job, JobError, JobSpec};
+use maamplan::scene::Scene;
 use std::path::PathBuf;
-use std::time::Instant;
 
 /// Collision-free, singularity-aware motion planning for multi-axis 3D printing.
 #[derive(Parser, Debug)]
@@ -51,25 +46,65 @@ enum Command {
 /// Inputs shared by every command.
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj) or a waypoint
-    /// file; omitted: the embedded default job.
+    /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj) or a single
+    /// waypoint file; omitted: the built-in example job.
     toolpath: Option<PathBuf>,
-    /// Print head mesh (OBJ/STL/glTF), tip at the origin, axis +z
+    /// Print head mesh (OBJ/STL/glTF): nozzle tip at the origin, nozzle
+    /// pointing down along -z (the head extends up +z), closed
     /// [default: a 45° cone, 20 mm radius, 30 mm tall].
     #[arg(long)]
     head: Option<PathBuf>,
-    /// Platform mesh (part frame) [default: a flat plate under the part].
+    /// Platform (build plate) mesh, in the toolpath's frame after --place
+    /// [default: a flat plate under the part].
     #[arg(long)]
     platform: Option<PathBuf>,
-    /// Translate the toolpath and layers by X,Y,Z mm (after --y-up).
+    /// Move the toolpath and its layers by X,Y,Z mm (applied after --y-up),
+    /// e.g. to put the part on the platform.
     #[arg(long, value_parser = parse_xyz, allow_hyphen_values = true)]
     place: Option<[f32; 3]>,
-    /// The toolpath is Y-up: rotate it to Z-up first.
+    /// The toolpath's files are Y-up: rotate them to Z-up first.
     #[arg(long)]
     y_up: bool,
-    /// Contact within this distance of the nozzle tip is ignored (mm).
+    /// Contact closer than this to the nozzle tip, along the nozzle, is
+    /// ignored: the nozzle rests on the bead it lays (mm).
     #[arg(long, default_value_t = 0.3)]
     clearance: f32,
+    /// Keep layers whose nozzle directions mostly point down as they are
+    /// stored (by default a layer with more than 20 % of them pointing down
+    /// is reversed, as the data set's original software does).
+    #[arg(long)]
+    keep_normals: bool,
+    /// Stress test: rotate every nozzle direction by DEG about the x axis
+    /// before anything else (as `shared/tools/fcl_check.py --tilt`).
+    #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
+    tilt: Option<f64>,
+}
+
+impl SceneArgs {
+    /// Load the inputs (or the built-in example) and build the scene.
+    pub fn load(&self) -> Result<Job> {
+        if let Some(t) = self.tilt {
+            if !t.is_finite() {
+                return Err(UsageError("--tilt must be a finite angle (degrees)".into()).into());
+            }
+        }
+        let spec = JobSpec {
+            toolpath: self.toolpath.clone(),
+            head: self.head.clone(),
+            platform: self.platform.clone(),
+            placement: Placement {
+                y_up: self.y_up,
+                offset: self.place.unwrap_or([0.0; 3]),
+            },
+            clearance: self.clearance,
+            keep_normals: self.keep_normals,
+            tilt_deg: self.tilt,
+        };
+        Job::load(&spec).map_err(|e| match e {
+            JobError::Setting(m) => UsageError(m).into(),
+            e => anyhow::Error::from(e),
+        })
+    }
 }
 
 /// Backends selectable on the command line.
@@ -148,102 +183,6 @@ pub(crate) fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
             "'{s}' is not X,Y,Z (three finite numbers separated by commas)"
         )),
     }
-}
-
-/// A loaded job and its built scene.
-pub struct Loaded {
-    /// What the user named (for messages).
-    pub source: String,
-    /// The toolpath.
-    pub toolpath: Toolpath,
-    /// The scene.
-    pub scene: Scene,
-    /// Seconds spent loading and building.
-    pub seconds: f64,
-}
-
-impl SceneArgs {
-    /// Load inputs (or the embedded default) and build the scene.
-    pub fn load(&self) -> Result<Loaded> {
-        let t0 = Instant::now();
-        if !(self.clearance >= 0.0 && self.clearance.is_finite()) {
-            return Err(UsageError("--clearance must be a finite number ≥ 0 (mm)".into()).into());
-        }
-        let place = Placement {
-            y_up: self.y_up,
-            offset: self.place.unwrap_or([0.0; 3]),
-        };
-        let (source, toolpath, default_head, default_platform) = match &self.toolpath {
-            Some(p) => {
-                let tp = load_toolpath(p, &place)?;
-                (p.display().to_string(), tp, None, None)
-            }
-            None => {
-                let job = default_job::job();
-                let tp = Toolpath {
-                    layers: job
-                        .toolpath
-                        .layers
-                        .into_iter()
-                        .map(|mut l| {
-                            for w in &mut l.waypoints {
-                                w.pos = place.point(w.pos);
-                                w.dir = place.direction(w.dir);
-                            }
-                            l.surface = l.surface.map(|s| s.map_vertices(|v| place.point(v)));
-                            l
-                        })
-                        .collect(),
-                };
-                (
-                    "embedded default".to_string(),
-                    tp,
-                    Some(job.head),
-                    Some(job.platform),
-                )
-            }
-        };
-        let head = match &self.head {
-            Some(p) => load_mesh(p)?,
-            None => default_head.unwrap_or_else(|| default_job::cone_head(20.0, 20.0, 30.0, 64)),
-        };
-        let platform = match &self.platform {
-            Some(p) => load_mesh(p)?,
-            None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
-        };
-        let cfg = SceneConfig {
-            head: HeadConfig {
-                tip_clearance: self.clearance,
-                ..HeadConfig::default()
-            },
-            max_edge: None,
-        };
-        let scene = Scene::build(&toolpath, &head, &platform, &cfg).with_context(|| {
-            format!(
-                "building the scene (head {})",
-                self.head
-                    .as_ref()
-                    .map_or("default".into(), |p| p.display().to_string())
-            )
-        })?;
-        Ok(Loaded {
-            source,
-            toolpath,
-            scene,
-            seconds: t0.elapsed().as_secs_f64(),
-        })
-    }
-}
-
-/// A flat plate whose top is at the toolpath's lowest point, 100 mm wider
-/// than the part on every side.
-fn plate_under(tp: &Toolpath) -> Mesh {
-    let pts: Vec<[f32; 3]> = tp.iter().map(|(_, w)| w.pos).collect();
-    let b = Aabb::from_points(&pts);
-    default_job::box_mesh(
-        [b.min[0] - 100.0, b.min[1] - 100.0, b.min[2] - 5.0],
-        [b.max[0] + 100.0, b.max[1] + 100.0, b.min[2]],
-    )
 }
 
 /// A command-line misuse (exit code 2).

@@ -1,29 +1,30 @@
-//! `maamplan plan`: waypoints → machine axes, G-code, CSV and a report.
+//! `maamplan plan`: waypoints → the machine's program (G-code), a CSV and a
+//! report.
 
 use super::{BackendKind, SceneArgs, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use maamplan::io::gcode::write_gcode;
+use maamplan::io::gcode::{write_gcode, GcodeHeader};
 use maamplan::io::output::write_atomic;
 use maamplan::io::plan_csv::write_plan_csv;
 use maamplan::kinematics::{load_machine, Machine};
 use maamplan::plan::candidates::Sampling;
 use maamplan::plan::smooth::Smoothing;
-use maamplan::plan::{plan, PlanOptions};
+use maamplan::plan::{plan, PlanOptions, Skip};
 use serde_json::json;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Smoothing choices on the command line.
 #[derive(ValueEnum, Clone, Copy, Debug)]
 pub enum SmoothingKind {
-    /// Paper 000's Laplacian pass.
+    /// Average each orientation with its neighbours, a few passes (default).
     Laplacian,
-    /// Paper 004's zero-phase moving average with cone correction.
+    /// Moving average, kept within --cone of the input.
     MovingAverage,
-    /// Paper 004's zero-phase median with cone correction.
+    /// Moving median, kept within --cone of the input.
     Median,
-    /// Orientations as given.
+    /// Use the orientations as given.
     None,
 }
 
@@ -32,47 +33,63 @@ pub enum SmoothingKind {
 pub struct PlanArgs {
     #[command(flatten)]
     scene: SceneArgs,
-    /// Machine file (TOML) [default: the data set's B/C rotary-table printer; `--write-machine` shows it].
+    /// Output folder: created if missing; toolpath.gcode, plan.csv,
+    /// report.json and the report files are replaced in it.
+    #[arg(short, long, required_unless_present = "write_machine")]
+    out: Option<PathBuf>,
+    /// Machine file (TOML) [default: the data set's B/C rotary-table
+    /// printer; `--write-machine` writes it out to start from].
     #[arg(long)]
     machine: Option<PathBuf>,
     /// Collision evaluator.
     #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
     backend: BackendKind,
-    /// Output folder (created).
-    #[arg(short, long)]
-    out: Option<PathBuf>,
-    /// Orientation smoothing before planning.
+    /// Safety margin every pose and move keeps from the platform and the
+    /// printed part (mm) [default: the machine file's, 0.05].
+    #[arg(long)]
+    margin: Option<f64>,
+    /// Fail (exit code 3, nothing written) instead of skipping waypoints
+    /// that no reachable orientation can print safely.
+    #[arg(long)]
+    strict: bool,
+    /// How to smooth the nozzle orientations before planning.
     #[arg(long, value_enum, default_value_t = SmoothingKind::Laplacian)]
     smoothing: SmoothingKind,
-    /// Passes of the Laplacian smoothing (8: see BENCHMARKS.md for why).
+    /// Passes of the default smoothing (more: smoother rotary motion,
+    /// orientations farther from the input).
     #[arg(long, default_value_t = 8)]
     passes: usize,
-    /// Window (waypoints) of the moving-average / median smoothing.
+    /// Waypoints averaged by --smoothing moving-average / median.
     #[arg(long, default_value_t = 9)]
     window: usize,
-    /// Tolerance cone half-angle of the moving-average / median smoothing (degrees).
+    /// How far (degrees) moving-average / median smoothing may turn an
+    /// orientation away from the input.
     #[arg(long, default_value_t = 15.0)]
     cone: f64,
-    /// Singular region half-angle α (degrees, Eq. 6).
+    /// Orientations within this angle of vertical (degrees) count as
+    /// singular: there the C axis is handled specially to avoid spins.
     #[arg(long, default_value_t = 4.5)]
     alpha: f64,
-    /// Variant cone half-angle β (degrees).
+    /// Where an orientation collides, alternatives are first sought within
+    /// this angle of it (degrees), widening until one is free.
     #[arg(long, default_value_t = 45.0)]
     beta: f64,
-    /// Variants per round of random sampling.
+    /// Alternative orientations tried per round for a colliding waypoint.
     #[arg(long, default_value_t = 24)]
     variants: usize,
-    /// Grow variants ring by ring (paper 002, heuristic 1) instead of sampling.
+    /// Try alternatives ring by ring (10° apart) instead of at random.
     #[arg(long)]
     rings: bool,
-    /// Paper 002's interval subsampling for very long paths: plan every
-    /// K-th waypoint first, then the intervals (1 = exact).
+    /// For very long toolpaths: plan every K-th waypoint first, then fill
+    /// in between (faster, possibly less smooth; 1 = exact).
     #[arg(long, default_value_t = 1)]
     subsample: usize,
-    /// Largest move of any head point between two motion checks (mm).
-    #[arg(long, default_value_t = 0.5)]
+    /// Initial spacing of the collision checks along each move: the
+    /// largest distance any point of the head moves between two (mm);
+    /// checks are refined where material is near.
+    #[arg(long, default_value_t = 0.3)]
     edge_step: f64,
-    /// Skip the plots, the 3D scene and the HTML report.
+    /// Skip the plots, the 3D scene and the HTML report (faster).
     #[arg(long)]
     no_plots: bool,
     /// Print only errors.
@@ -86,6 +103,48 @@ pub struct PlanArgs {
     write_machine: Option<PathBuf>,
 }
 
+/// `--strict` found waypoints it would have skipped (exit code 3).
+#[derive(Debug, thiserror::Error)]
+#[error("{0}")]
+pub struct StrictError(pub String);
+
+/// Check before any work that `out` can become the output folder: not a
+/// file, and its nearest existing ancestor a writable folder.
+fn check_output(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(UsageError(format!(
+            "{}: is a file, not a folder: give -o a folder to write the plan into",
+            out.display()
+        ))
+        .into());
+    }
+    let mut anc = out;
+    while !anc.exists() {
+        anc = match anc.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+    }
+    if !anc.is_dir() {
+        return Err(UsageError(format!(
+            "{}: cannot create the output folder {} inside a file",
+            anc.display(),
+            out.display()
+        ))
+        .into());
+    }
+    tempfile::Builder::new()
+        .prefix(".maamplan-probe-")
+        .tempdir_in(anc)
+        .map_err(|e| {
+            UsageError(format!(
+                "{}: cannot write there ({e}): choose another -o folder",
+                anc.display()
+            ))
+        })?;
+    Ok(())
+}
+
 /// Run `plan`.
 pub fn run(a: PlanArgs) -> Result<()> {
     if let Some(p) = &a.write_machine {
@@ -94,26 +153,26 @@ pub fn run(a: PlanArgs) -> Result<()> {
         println!("wrote the default machine to {}", p.display());
         return Ok(());
     }
-    let Some(out) = a.out.clone() else {
-        return Err(UsageError("plan needs -o DIR (the output folder)".into()).into());
-    };
+    let out = a.out.clone().expect("clap requires -o");
     for (name, v, lo, hi) in [
         ("--alpha", a.alpha, 0.0, 45.0),
         ("--beta", a.beta, 1.0, 90.0),
         ("--cone", a.cone, 0.1, 90.0),
         ("--edge-step", a.edge_step, 0.01, 10.0),
+        ("--margin", a.margin.unwrap_or(0.05), 0.0, 10.0),
     ] {
         if !(v >= lo && v <= hi) {
             return Err(UsageError(format!("{name} must be between {lo} and {hi}")).into());
         }
     }
+    check_output(&out)?;
     let t0 = Instant::now();
     let machine = match &a.machine {
         Some(p) => load_machine(p)?,
         None => Machine::default(),
     };
-    let loaded = a.scene.load()?;
-    let scene = &loaded.scene;
+    let job = a.scene.load()?;
+    let scene = &job.scene;
     let backend = a.backend.build(scene, !a.quiet)?;
     let load_s = t0.elapsed().as_secs_f64();
 
@@ -140,8 +199,9 @@ pub fn run(a: PlanArgs) -> Result<()> {
             }
         },
         edge_step: a.edge_step,
-        jump: 5.0,
         subsample: a.subsample.max(1),
+        margin: a.margin,
+        ..PlanOptions::default()
     };
     let pb = if a.quiet {
         indicatif::ProgressBar::hidden()
@@ -155,7 +215,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     pb.enable_steady_tick(std::time::Duration::from_millis(120));
     let p = plan(
         scene,
-        &loaded.toolpath,
+        &job.toolpath,
         &machine,
         backend.as_ref(),
         &opts,
@@ -163,24 +223,58 @@ pub fn run(a: PlanArgs) -> Result<()> {
     )?;
     pb.finish_and_clear();
 
+    let layer_name = |l: usize| job.toolpath.layers[l].name.clone();
+    let skipped: Vec<serde_json::Value> = p
+        .waypoints
+        .iter()
+        .enumerate()
+        .filter_map(|(g, w)| {
+            w.skipped.map(|why| {
+                json!({"index": g, "layer": w.layer, "layer_name": layer_name(w.layer), "reason": why})
+            })
+        })
+        .collect();
+    if a.strict && !skipped.is_empty() {
+        let n_res = p
+            .waypoints
+            .iter()
+            .filter(|w| w.skipped == Some(Skip::Residual))
+            .count();
+        return Err(StrictError(format!(
+            "--strict: {} waypoint(s) cannot be printed safely ({} with no safe orientation, {} out of the axis ranges; first: waypoint {}); nothing written",
+            skipped.len(),
+            n_res,
+            skipped.len() - n_res,
+            skipped[0]["index"]
+        ))
+        .into());
+    }
+
     let t1 = Instant::now();
-    let gcode = write_gcode(&machine, &p.waypoints);
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let gcode = write_gcode(
+        &machine,
+        &p.program,
+        &GcodeHeader {
+            source: job.source.clone(),
+            command: command.clone(),
+        },
+    );
     let csv = write_plan_csv(&machine, &p.waypoints);
     let write_s = t1.elapsed().as_secs_f64();
     let mut stages = serde_json::Map::new();
     stages.insert("load".into(), json!(load_s));
-    for (k, v) in &p.stages {
-        stages.insert(k.clone(), json!(v));
+    for s in &p.stages {
+        stages.insert(s.name.clone(), json!(s.seconds));
     }
     stages.insert("write".into(), json!(write_s));
     let seconds = t0.elapsed().as_secs_f64();
-    let command = std::env::args().collect::<Vec<_>>().join(" ");
     // Everything goes into a scratch folder beside DIR first; only when all
     // of it exists is it moved into DIR, so a failed run leaves nothing.
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(std::path::Path::new("."));
+        .unwrap_or(Path::new("."));
     std::fs::create_dir_all(parent).map_err(|e| {
         UsageError(format!(
             "{}: cannot create the output folder ({e})",
@@ -201,6 +295,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         "plan.csv".to_string(),
         "report.json".to_string(),
     ];
+    let flipped = job.flipped_names();
     if !a.no_plots {
         let t2 = Instant::now();
         let figs =
@@ -211,8 +306,11 @@ pub fn run(a: PlanArgs) -> Result<()> {
             &maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
         )?;
         let html = maamplan::report::html::report_html(
-            &loaded.source,
-            &command,
+            &maamplan::report::html::ReportContext {
+                source: &job.source,
+                command: &command,
+                flipped_layers: &flipped,
+            },
             &machine,
             &p,
             &figs,
@@ -227,11 +325,16 @@ pub fn run(a: PlanArgs) -> Result<()> {
         ]);
     }
     let report = json!({
-        "source": loaded.source,
+        "source": job.source,
         "backend": backend.name(),
         "machine": machine,
+        "margin": p.margin,
+        "flipped_layers": flipped,
         "input": p.input,
         "plan": p.plan,
+        "skipped": skipped,
+        "warnings": p.warnings,
+        "collision_queries": p.queries,
         "seconds": t0.elapsed().as_secs_f64(),
         "stages": stages,
         "command": command,
@@ -257,19 +360,37 @@ pub fn run(a: PlanArgs) -> Result<()> {
     if a.quiet {
         return Ok(());
     }
+    for w in &p.warnings {
+        eprintln!("warning: {w}");
+    }
     if a.verbose {
-        for (k, v) in &stages {
-            println!("stage {k:<14} {:>8.3} s", v.as_f64().unwrap_or(0.0));
+        println!("stage {:<14} {:>8.3} s", "load", load_s);
+        for s in &p.stages {
+            println!(
+                "stage {:<14} {:>8.3} s {:>12} collision queries",
+                s.name, s.seconds, s.queries
+            );
+        }
+        for k in ["report", "write"] {
+            if let Some(v) = stages.get(k) {
+                println!("stage {k:<14} {:>8.3} s", v.as_f64().unwrap_or(0.0));
+            }
         }
     }
-
-    println!("{:<32} {:>12} {:>14}", "", "input", "plan");
+    if !flipped.is_empty() {
+        println!(
+            "reversed the nozzle directions of {} layer(s) that mostly pointed down (--keep-normals to keep them): {}",
+            flipped.len(),
+            flipped.join(", ")
+        );
+    }
+    println!("{:<36} {:>12} {:>14}", "", "input", "plan");
     for (k, i, pl) in maamplan::report::summary_rows(&p.input, &p.plan) {
-        println!("{k:<32} {i:>12} {pl:>14}");
+        println!("{k:<36} {i:>12} {pl:>14}");
     }
     println!(
         "{}: planned in {:.2} s, {:.2} s in all (backend {}); wrote {}/{}",
-        loaded.source,
+        job.source,
         seconds,
         t0.elapsed().as_secs_f64(),
         backend.name(),

@@ -63,6 +63,103 @@ pub struct Extrusion {
     pub default_height: f64,
     /// Nozzle temperature (°C) for the G-code header.
     pub temperature: u32,
+    /// Tool number of the main extruder (`T<n>` in the G-code).
+    #[serde(default = "default_tool")]
+    pub tool: u32,
+}
+
+fn default_tool() -> u32 {
+    1
+}
+
+/// The second extruder that prints support layers (layers named `…S`), as
+/// the data set's original software does.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SupportTool {
+    /// Tool number (`T<n>`).
+    pub tool: u32,
+    /// Nozzle temperature (°C).
+    pub temperature: u32,
+    /// Print feed (mm/s).
+    pub feed: f64,
+    /// Extrusion factor relative to the main extruder's Eq. 1.
+    pub extrusion: f64,
+    /// X/Y offset of this nozzle from the main one (mm); the written X/Y of
+    /// its moves are shifted by minus this.
+    pub offset: [f64; 2],
+    /// Tip-speed range this extruder can feed (mm/s).
+    pub tip_speed: [f64; 2],
+}
+
+impl Default for SupportTool {
+    fn default() -> Self {
+        SupportTool {
+            tool: 2,
+            temperature: 205,
+            feed: 2500.0 / 60.0,
+            extrusion: 0.9,
+            offset: [0.0, 0.0],
+            tip_speed: [1.0, 2500.0 / 60.0],
+        }
+    }
+}
+
+/// Moves between printed sections: retract, lift, travel, approach, prime.
+/// Defaults are the data set's reference G-code.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Travel {
+    /// Filament pulled back before a travel and pushed back after it (mm).
+    pub retract: f64,
+    /// Feed of retract and prime (mm/s of filament).
+    pub retract_speed: f64,
+    /// Extra filament pushed at the start of each layer (mm).
+    pub prime: f64,
+    /// Travel height above the highest machine Z printed so far (mm).
+    pub lift: f64,
+    /// The head comes down to this height above the next waypoint, then
+    /// approaches it along the nozzle (mm).
+    pub approach: f64,
+    /// Feed of horizontal and rotary travel (mm/s).
+    pub speed: f64,
+    /// Feed of lifting and lowering (mm/s).
+    pub z_speed: f64,
+    /// Machine Z of the home / park position (mm).
+    pub home_z: f64,
+}
+
+impl Default for Travel {
+    fn default() -> Self {
+        Travel {
+            retract: 6.0,
+            retract_speed: 4800.0 / 60.0,
+            prime: 3.0,
+            lift: 50.0,
+            approach: 2.0,
+            speed: 5250.0 / 60.0,
+            z_speed: 4750.0 / 60.0,
+            home_z: 230.0,
+        }
+    }
+}
+
+impl Travel {
+    /// Seconds a break takes besides its rotation: retract and prime, lift
+    /// and lower, approach.
+    pub fn break_seconds(&self) -> f64 {
+        2.0 * self.retract / self.retract_speed
+            + 2.0 * self.lift / self.z_speed
+            + self.approach / self.z_speed
+    }
+}
+
+fn default_margin() -> f64 {
+    0.05
+}
+
+fn default_tip_tolerance() -> f64 {
+    0.05
 }
 
 /// A 5-axis machine.
@@ -99,6 +196,21 @@ pub struct Machine {
     pub feed: f64,
     /// Extrusion.
     pub extrusion: Extrusion,
+    /// Safety margin (mm): every pose and move keeps at least this distance
+    /// from the platform and printed material.
+    #[serde(default = "default_margin")]
+    pub margin: f64,
+    /// Largest distance the nozzle tip may leave its bead while extruding
+    /// under joint-linear interpolation (mm); longer moves get intermediate
+    /// points.
+    #[serde(default = "default_tip_tolerance")]
+    pub tip_tolerance: f64,
+    /// The support extruder.
+    #[serde(default)]
+    pub support: SupportTool,
+    /// Moves between printed sections.
+    #[serde(default)]
+    pub travel: Travel,
 }
 
 /// The C axis: speed, and an optional range.
@@ -151,12 +263,58 @@ impl Default for Machine {
                 width: 0.7,
                 default_height: 0.5,
                 temperature: 205,
+                tool: 1,
             },
+            margin: default_margin(),
+            tip_tolerance: default_tip_tolerance(),
+            support: SupportTool::default(),
+            travel: Travel::default(),
         }
     }
 }
 
+/// The printing settings of one extruder, main or support.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToolSettings {
+    /// Tool number (`T<n>`).
+    pub tool: u32,
+    /// Nozzle temperature (°C).
+    pub temperature: u32,
+    /// Print feed (mm/s).
+    pub feed: f64,
+    /// Extrusion factor on Eq. 1.
+    pub extrusion: f64,
+    /// X/Y offset from the main nozzle (mm).
+    pub offset: [f64; 2],
+    /// Tip-speed range (mm/s).
+    pub tip_speed: [f64; 2],
+}
+
 impl Machine {
+    /// The extruder printing a layer: the support tool for support layers.
+    pub fn tool_for(&self, support: bool) -> ToolSettings {
+        if support {
+            let s = &self.support;
+            ToolSettings {
+                tool: s.tool,
+                temperature: s.temperature,
+                feed: s.feed,
+                extrusion: s.extrusion,
+                offset: s.offset,
+                tip_speed: s.tip_speed,
+            }
+        } else {
+            ToolSettings {
+                tool: self.extrusion.tool,
+                temperature: self.extrusion.temperature,
+                feed: self.feed,
+                extrusion: 1.0,
+                offset: [0.0, 0.0],
+                tip_speed: self.tip_speed,
+            }
+        }
+    }
+
     /// Offsets `[d, h, r]`.
     pub fn offsets(&self) -> [f64; 3] {
         [self.d, self.h, self.r]
@@ -179,9 +337,40 @@ impl Machine {
         if speeds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return Err("every axis speed and the feed must be positive".into());
         }
+        let t = &self.travel;
+        if [t.retract_speed, t.speed, t.z_speed, self.support.feed]
+            .iter()
+            .any(|s| !(s.is_finite() && *s > 0.0))
+        {
+            return Err("travel speeds and the support feed must be positive".into());
+        }
+        if [t.retract, t.prime, t.lift, t.approach]
+            .iter()
+            .any(|s| !(s.is_finite() && *s >= 0.0))
+        {
+            return Err("travel retract, prime, lift and approach must be ≥ 0".into());
+        }
+        if !(self.margin.is_finite() && self.margin >= 0.0 && self.margin < 10.0) {
+            return Err("margin must be between 0 and 10 mm".into());
+        }
+        if !(self.tip_tolerance.is_finite() && self.tip_tolerance >= 0.001) {
+            return Err("tip_tolerance must be at least 0.001 mm".into());
+        }
+        let [slo, shi] = self.support.tip_speed;
+        if !(slo > 0.0 && shi > slo) {
+            return Err("support.tip_speed must be [v_min, v_max] with 0 < v_min < v_max".into());
+        }
+        if let Some([lo, hi]) = self.c.range {
+            if lo.is_nan() || hi.is_nan() || lo >= hi {
+                return Err("c.range must be [min, max] with min < max".into());
+            }
+        }
         let [lo, hi] = self.tip_speed;
         if !(lo > 0.0 && hi > lo) {
             return Err("tip_speed must be [v_min, v_max] with 0 < v_min < v_max".into());
+        }
+        if !(self.travel.home_z >= self.z.min && self.travel.home_z <= self.z.max) {
+            return Err("travel.home_z must lie within the z range".into());
         }
         for (name, a) in [
             ("x", self.x),

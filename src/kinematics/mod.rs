@@ -21,7 +21,9 @@
 
 pub mod machine_file;
 
-pub use machine_file::{load_machine, AxisLimits, Extrusion, Machine, MachineError};
+pub use machine_file::{
+    load_machine, AxisLimits, Extrusion, Machine, MachineError, SupportTool, ToolSettings, Travel,
+};
 
 use crate::geometry::{Pose, V3};
 use serde::{Deserialize, Serialize};
@@ -212,6 +214,79 @@ pub fn tip_position(
         ],
         (Configuration::III, Rotary::BC) => apply(transpose(mul(ry(t), rz(c))), xyz),
         (Configuration::III, Rotary::AC) => apply(transpose(mul(rx(t), rz(c))), xyz),
+    }
+}
+
+/// Decimals of every axis value in the written program (mm and degrees).
+pub const DECIMALS: i32 = 3;
+
+/// `x` rounded to the program's [`DECIMALS`].
+pub fn round_written(x: f64) -> f64 {
+    let s = 10f64.powi(DECIMALS);
+    (x * s).round() / s
+}
+
+/// An angle (radians) rounded to the program's [`DECIMALS`] in degrees.
+pub fn round_angle(a: f64) -> f64 {
+    round_written(a.to_degrees()).to_radians()
+}
+
+impl Axes {
+    /// The same axes rounded as the G-code writes them, so that what the
+    /// planner checks is exactly what the machine is told.
+    pub fn as_written(&self) -> Axes {
+        Axes {
+            xyz: self.xyz.map(round_written),
+            tilt: round_angle(self.tilt),
+            c: round_angle(self.c),
+        }
+    }
+
+    /// Linear interpolation `self → b` at `t` (what a controller does
+    /// between two G-code lines in the joint-space dialect).
+    pub fn lerp(&self, b: &Axes, t: f64) -> Axes {
+        Axes {
+            xyz: std::array::from_fn(|k| self.xyz[k] + t * (b.xyz[k] - self.xyz[k])),
+            tilt: self.tilt + t * (b.tilt - self.tilt),
+            c: self.c + t * (b.c - self.c),
+        }
+    }
+
+    /// Total rotary motion `|Δtilt| + |ΔC|` to `b` (radians).
+    pub fn rotation_to(&self, b: &Axes) -> f64 {
+        (b.tilt - self.tilt).abs() + (b.c - self.c).abs()
+    }
+}
+
+impl Machine {
+    /// The machine axes putting the tip at part-frame `p` with rotary
+    /// angles `(tilt, c)`, rounded as written.
+    pub fn axes_at(&self, p: [f64; 3], (tilt, c): (f64, f64)) -> Axes {
+        let (tilt, c) = (round_angle(tilt), round_angle(c));
+        Axes {
+            xyz: linear_axes(self.configuration, self.rotary, self.offsets(), p, tilt, c)
+                .map(round_written),
+            tilt,
+            c,
+        }
+    }
+
+    /// The part-frame tip of `a` (forward kinematics).
+    pub fn tip(&self, a: &Axes) -> [f64; 3] {
+        tip_position(
+            self.configuration,
+            self.rotary,
+            self.offsets(),
+            a.xyz,
+            a.tilt,
+            a.c,
+        )
+    }
+
+    /// The head's pose in the part frame at axes `a`: the pose every
+    /// command checks (the machine's own, not a minimal rotation).
+    pub fn pose(&self, a: &Axes) -> Pose {
+        head_pose(self.rotary, self.tip(a), a.tilt, a.c)
     }
 }
 

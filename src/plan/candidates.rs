@@ -2,6 +2,8 @@
 //! paper 002, heuristic 1): orientations sampled on the sphere within `β`
 //! of the waypoint's orientation, outside the singular region, widened by
 //! 10 % until one is free — or grown ring by ring (10° apart) instead.
+//! Before a waypoint is given up, [`reachable_directions`] lists every
+//! orientation the machine can reach, at most 5° apart.
 
 use super::singular::is_singular;
 
@@ -95,9 +97,71 @@ pub fn round(n: N, seed: u64, round: u32, how: Sampling, beta: f64, alpha: f64) 
         .collect()
 }
 
+/// Every nozzle direction the machine can reach with |tilt| up to `top`
+/// (radians), as IK pairs `[(−τ, c), (τ, c + π)]` (callers drop members
+/// outside the tilt range): rings of constant |tilt| `step` apart, azimuths
+/// at most `step` apart along each ring, so every direction lies within
+/// `step` of one of them and no free cone wider than that is missed.
+pub fn reachable_directions(top: f64, step: f64) -> Vec<[(f64, f64); 2]> {
+    let top = top.min(std::f64::consts::PI);
+    let rings = (top / step).ceil() as usize;
+    let mut out = vec![[(0.0, 0.0), (0.0, std::f64::consts::PI)]];
+    for j in 1..=rings {
+        let tau = (j as f64 * step).min(top);
+        let n = ((std::f64::consts::TAU * tau.sin()) / step).ceil().max(1.0) as usize;
+        for k in 0..n {
+            let c = crate::kinematics::wrap(k as f64 * std::f64::consts::TAU / n as f64);
+            out.push([
+                (-tau, c),
+                (tau, crate::kinematics::wrap(c + std::f64::consts::PI)),
+            ]);
+        }
+    }
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::{orientation, Rotary};
+
+    #[test]
+    fn reachable_directions_leave_no_gap_wider_than_the_step() {
+        let step = 5f64.to_radians();
+        let grid = reachable_directions(90f64.to_radians(), step);
+        let dirs: Vec<N> = grid
+            .iter()
+            .map(|&[(t, c), mirror]| {
+                // Both members of a pair point the same way.
+                let (a, b) = (
+                    orientation(Rotary::BC, t, c),
+                    orientation(Rotary::BC, mirror.0, mirror.1),
+                );
+                assert!((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs() < 1e-9);
+                a
+            })
+            .collect();
+        // Random upper-hemisphere directions all have a grid direction
+        // within the covering radius of a `step` lattice.
+        let mut h = 12345u64;
+        for _ in 0..2000 {
+            h = splitmix(h);
+            let z = unit(h);
+            let phi = unit(splitmix(h ^ 7)) * std::f64::consts::TAU;
+            let r = (1.0 - z * z).sqrt();
+            let d = [r * phi.cos(), r * phi.sin(), z];
+            let best = dirs
+                .iter()
+                .map(|g| {
+                    (g[0] * d[0] + g[1] * d[1] + g[2] * d[2])
+                        .clamp(-1.0, 1.0)
+                        .acos()
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!(best <= step, "gap {}°", best.to_degrees());
+        }
+        assert!(grid.len() < 1000, "{} directions", grid.len());
+    }
 
     #[test]
     fn samples_stay_in_the_cap_and_out_of_the_singular_region() {

@@ -1,23 +1,18 @@
 //! The layered graph (paper 000, Sec. III-C, Algorithm 1): one column per
-//! waypoint, one node per candidate machine configuration `(tilt, C)`; an
-//! edge joins every pair of nodes in neighbouring columns, weighted
-//! `|Δtilt| + |ΔC|` (degrees, C unwound: the shorter way round). The
-//! graph is a layered DAG, so dynamic programming over the columns finds the
-//! exact shortest path (Dijkstra would find the same). Edges whose motion
-//! collides are blocked; a column no unblocked edge reaches is entered
-//! through a break (lift, travel, approach) at a prohibitive cost, so breaks
-//! appear only where nothing else works.
+//! waypoint, one node per candidate machine configuration; an edge joins
+//! every pair of nodes in neighbouring columns. Between two neighbours the
+//! machine either prints (cost [`CostModel::print`]: the rotation, plus the
+//! blob when the extruder cannot follow it) or breaks off (cost
+//! [`CostModel::brk`]: the rotation plus the time of retract, lift,
+//! approach and prime); the search takes whichever is cheaper, so breaks
+//! are priced, not a last resort. Edges whose printing motion collides are
+//! blocked, leaving only the break between those two nodes. The graph is a
+//! layered DAG, so dynamic programming over the columns finds the exact
+//! shortest path.
 
-use crate::kinematics::wrap;
+use super::cost::CostModel;
+use crate::kinematics::Axes;
 use std::collections::HashSet;
-
-/// Cost of a break in the toolpath, in degrees: more than any real path.
-pub const BREAK_COST: f64 = 1.0e7;
-
-/// Edge weight in degrees.
-pub fn weight(a: (f64, f64), b: (f64, f64)) -> f64 {
-    ((b.0 - a.0).abs() + wrap(b.1 - a.1).abs()).to_degrees()
-}
 
 /// A chosen path: node index per column and whether column `i` is entered
 /// through a break.
@@ -27,19 +22,38 @@ pub struct Path {
     pub nodes: Vec<usize>,
     /// `breaks[i]`: the move into column `i` is a break (never for column 0).
     pub breaks: Vec<bool>,
-    /// Total weight, breaks included.
+    /// Total cost (degrees).
     pub cost: f64,
 }
 
-/// Shortest path through `cols` (each a list of `(tilt, c)`), avoiding the
-/// `blocked` edges `(column of the edge's end, from node, to node)`.
-pub fn shortest_path(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, usize)>) -> Path {
-    shortest_path_with(cols, &|i, k, j| blocked.contains(&(i, k, j)))
+/// The columns of one section: candidate configurations per waypoint and
+/// the bead length from each waypoint to the next.
+#[derive(Clone, Copy)]
+pub struct Columns<'a> {
+    /// Candidate configurations per column.
+    pub cols: &'a [Vec<Axes>],
+    /// `lens[i]`: bead length from column `i` to column `i + 1` (mm).
+    pub lens: &'a [f64],
+    /// Edge costs.
+    pub cost: &'a CostModel,
+}
+
+/// Blocked printing edges `(column of the edge's end, from node, to node)`.
+pub type Blocked = HashSet<(usize, usize, usize)>;
+
+/// Shortest path through the columns avoiding the `blocked` printing edges
+/// (breaks stay possible everywhere).
+pub fn shortest_path(g: Columns, blocked: &Blocked) -> Path {
+    shortest_path_with(g.cols, g.lens, g.cost, &|i, k, j| {
+        blocked.contains(&(i, k, j))
+    })
 }
 
 /// [`shortest_path`] with the blocked edges given by a predicate.
 fn shortest_path_with(
-    cols: &[Vec<(f64, f64)>],
+    cols: &[Vec<Axes>],
+    lens: &[f64],
+    cm: &CostModel,
     blocked: &dyn Fn(usize, usize, usize) -> bool,
 ) -> Path {
     if cols.is_empty() {
@@ -49,40 +63,34 @@ fn shortest_path_with(
             cost: 0.0,
         };
     }
-    let mut cost: Vec<Vec<f64>> = vec![vec![0.0; cols[0].len()]];
+    let mut cost: Vec<f64> = vec![0.0; cols[0].len()];
     let mut from: Vec<Vec<(usize, bool)>> = vec![vec![(0, false); cols[0].len()]];
     for i in 1..cols.len() {
-        let prev = &cost[i - 1];
-        // Cheapest predecessor for a break: any node, plus the penalty.
-        let (bk, bc) =
-            prev.iter().enumerate().fold(
-                (0, f64::INFINITY),
-                |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc },
-            );
+        let len = lens[i - 1];
         let mut ci = Vec::with_capacity(cols[i].len());
         let mut fi = Vec::with_capacity(cols[i].len());
-        for (j, &b) in cols[i].iter().enumerate() {
-            let mut best = (bc + BREAK_COST, (bk, true));
-            for (k, &a) in cols[i - 1].iter().enumerate() {
-                if blocked(i, k, j) {
-                    continue;
-                }
-                let c = prev[k] + weight(a, b);
+        for (j, b) in cols[i].iter().enumerate() {
+            let mut best = (f64::INFINITY, (0, true));
+            for (k, a) in cols[i - 1].iter().enumerate() {
+                let c = cost[k] + cm.brk(len, a, b);
                 if c < best.0 {
-                    best = (c, (k, false));
+                    best = (c, (k, true));
+                }
+                if !blocked(i, k, j) {
+                    let c = cost[k] + cm.print(len, a, b);
+                    if c <= best.0 {
+                        best = (c, (k, false));
+                    }
                 }
             }
             ci.push(best.0);
             fi.push(best.1);
         }
-        cost.push(ci);
+        cost = ci;
         from.push(fi);
     }
-    let last = cols.len() - 1;
-    let (mut j, total) = cost[last]
-        .iter()
-        .enumerate()
-        .fold(
+    let (mut j, total) =
+        cost.iter().enumerate().fold(
             (0, f64::INFINITY),
             |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc },
         );
@@ -104,24 +112,25 @@ fn shortest_path_with(
 }
 
 /// Paper 002's heuristic 2 (interval subsampling) for very long paths:
-/// solve the graph of every `k`-th column (and the last) with direct edges,
-/// then each interval between two chosen nodes on its own. Cheaper on
-/// memory, never cheaper in cost than [`shortest_path`]; `k ≤ 1` is exact.
-pub fn shortest_path_subsampled(
-    cols: &[Vec<(f64, f64)>],
-    blocked: &HashSet<(usize, usize, usize)>,
-    k: usize,
-) -> Path {
+/// solve the graph of every `k`-th column (and the last) with the direct
+/// moves between them, then each interval between two chosen nodes on its
+/// own. Never cheaper than [`shortest_path`]; `k ≤ 1` is exact.
+pub fn shortest_path_subsampled(g: Columns, blocked: &Blocked, k: usize) -> Path {
+    let cols = g.cols;
     let last = cols.len().saturating_sub(1);
     if k <= 1 || cols.len() <= k + 1 {
-        return shortest_path(cols, blocked);
+        return shortest_path(g, blocked);
     }
     let mut picks: Vec<usize> = (0..cols.len()).step_by(k).collect();
     if picks.last() != Some(&last) {
         picks.push(last);
     }
-    let coarse_cols: Vec<Vec<(f64, f64)>> = picks.iter().map(|&i| cols[i].clone()).collect();
-    let coarse = shortest_path(&coarse_cols, &HashSet::new());
+    let coarse_cols: Vec<Vec<Axes>> = picks.iter().map(|&i| cols[i].clone()).collect();
+    let coarse_lens: Vec<f64> = picks
+        .windows(2)
+        .map(|w| g.lens[w[0]..w[1]].iter().sum())
+        .collect();
+    let coarse = shortest_path_with(&coarse_cols, &coarse_lens, g.cost, &|_, _, _| false);
     let mut nodes = vec![0; cols.len()];
     let mut breaks = vec![false; cols.len()];
     let mut cost = 0.0;
@@ -130,7 +139,7 @@ pub fn shortest_path_subsampled(
         let (na, nb) = (coarse.nodes[m], coarse.nodes[m + 1]);
         // The interval with its ends pinned to the coarse choice; local node
         // 0 of the end columns stands for the pinned node.
-        let sub: Vec<Vec<(f64, f64)>> = (a..=b)
+        let sub: Vec<Vec<Axes>> = (a..=b)
             .map(|i| match i {
                 _ if i == a => vec![cols[a][na]],
                 _ if i == b => vec![cols[b][nb]],
@@ -146,7 +155,7 @@ pub fn shortest_path_subsampled(
                 n
             }
         };
-        let p = shortest_path_with(&sub, &|l, kk, j| {
+        let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &|l, kk, j| {
             blocked.contains(&(a + l, global(a + l - 1, kk), global(a + l, j)))
         });
         for (l, &n) in p.nodes.iter().enumerate() {
@@ -167,38 +176,48 @@ pub fn shortest_path_subsampled(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::Machine;
 
-    fn brute(cols: &[Vec<(f64, f64)>], blocked: &HashSet<(usize, usize, usize)>) -> f64 {
-        fn go(
-            cols: &[Vec<(f64, f64)>],
-            blocked: &HashSet<(usize, usize, usize)>,
-            i: usize,
-            prev: usize,
-            acc: f64,
-            best: &mut f64,
-        ) {
-            if i == cols.len() {
+    /// Cost of `path` recomputed from its own moves.
+    fn path_cost(g: Columns, p: &Path) -> f64 {
+        (1..g.cols.len())
+            .map(|i| {
+                let (a, b) = (&g.cols[i - 1][p.nodes[i - 1]], &g.cols[i][p.nodes[i]]);
+                if p.breaks[i] {
+                    g.cost.brk(g.lens[i - 1], a, b)
+                } else {
+                    g.cost.print(g.lens[i - 1], a, b)
+                }
+            })
+            .sum()
+    }
+
+    fn brute(g: Columns, blocked: &Blocked) -> f64 {
+        fn go(g: Columns, blocked: &Blocked, i: usize, prev: usize, acc: f64, best: &mut f64) {
+            if i == g.cols.len() {
                 *best = best.min(acc);
                 return;
             }
-            for j in 0..cols[i].len() {
-                let w = if blocked.contains(&(i, prev, j)) {
-                    BREAK_COST
-                } else {
-                    weight(cols[i - 1][prev], cols[i][j])
-                };
-                go(cols, blocked, i + 1, j, acc + w, best);
+            for j in 0..g.cols[i].len() {
+                let (a, b) = (&g.cols[i - 1][prev], &g.cols[i][j]);
+                let mut w = g.cost.brk(g.lens[i - 1], a, b);
+                if !blocked.contains(&(i, prev, j)) {
+                    w = w.min(g.cost.print(g.lens[i - 1], a, b));
+                }
+                go(g, blocked, i + 1, j, acc + w, best);
             }
         }
         let mut best = f64::INFINITY;
-        for j in 0..cols[0].len() {
-            go(cols, blocked, 1, j, 0.0, &mut best);
+        for j in 0..g.cols[0].len() {
+            go(g, blocked, 1, j, 0.0, &mut best);
         }
         best
     }
 
     #[test]
     fn dp_matches_brute_force_enumeration() {
+        let m = Machine::default();
+        let cm = CostModel::new(&m, m.feed, m.tip_speed, 10.0);
         let mut s = 99u64;
         let mut rnd = || {
             s = s
@@ -208,14 +227,25 @@ mod tests {
         };
         for _ in 0..200 {
             let n = 2 + (rnd() * 5.0) as usize;
-            let cols: Vec<Vec<(f64, f64)>> = (0..n)
-                .map(|_| {
+            let cols: Vec<Vec<Axes>> = (0..n)
+                .map(|i| {
                     (0..1 + (rnd() * 4.0) as usize)
-                        .map(|_| (rnd() * 2.0 - 1.0, rnd() * 7.0 - 3.5))
+                        .map(|_| {
+                            m.axes_at(
+                                [10.0 + 0.6 * i as f64, 2.0, 45.0],
+                                (rnd() * 2.0 - 1.0, rnd() * 6.2 - 3.1),
+                            )
+                        })
                         .collect()
                 })
                 .collect();
-            let mut blocked = HashSet::new();
+            let lens: Vec<f64> = (0..n).map(|_| rnd() * 2.0).collect();
+            let g = Columns {
+                cols: &cols,
+                lens: &lens,
+                cost: &cm,
+            };
+            let mut blocked = Blocked::new();
             for i in 1..n {
                 for k in 0..cols[i - 1].len() {
                     for j in 0..cols[i].len() {
@@ -225,57 +255,57 @@ mod tests {
                     }
                 }
             }
-            let p = shortest_path(&cols, &blocked);
-            let b = brute(&cols, &blocked);
+            let p = shortest_path(g, &blocked);
+            let b = brute(g, &blocked);
             assert!(
                 (p.cost - b).abs() < 1e-6 * b.max(1.0),
                 "dp {} brute {}",
                 p.cost,
                 b
             );
-            // The path's own cost adds up.
-            let mut c = 0.0;
+            assert!((path_cost(g, &p) - p.cost).abs() < 1e-6 * p.cost.max(1.0));
             for i in 1..n {
-                c += if p.breaks[i] {
-                    BREAK_COST
-                } else {
-                    weight(cols[i - 1][p.nodes[i - 1]], cols[i][p.nodes[i]])
-                };
                 if !p.breaks[i] {
                     assert!(!blocked.contains(&(i, p.nodes[i - 1], p.nodes[i])));
                 }
             }
-            assert!((c - p.cost).abs() < 1e-6 * c.max(1.0));
             // Subsampling: never cheaper than exact, a valid path, exact at k = 1.
             for k in [1, 2, 3] {
-                let s = shortest_path_subsampled(&cols, &blocked, k);
+                let s = shortest_path_subsampled(g, &blocked, k);
                 assert_eq!(s.nodes.len(), n);
-                assert!(
-                    s.cost >= p.cost - 1e-6 * p.cost.max(1.0),
-                    "k {k}: {} < {}",
-                    s.cost,
-                    p.cost
-                );
+                assert!(s.cost >= p.cost - 1e-6 * p.cost.max(1.0), "k {k}");
                 if k == 1 {
                     assert!((s.cost - p.cost).abs() < 1e-6 * p.cost.max(1.0));
                 }
-                let mut c = 0.0;
+                assert!((path_cost(g, &s) - s.cost).abs() < 1e-6 * s.cost.max(1.0));
                 for i in 1..n {
-                    c += if s.breaks[i] {
-                        BREAK_COST
-                    } else {
-                        weight(cols[i - 1][s.nodes[i - 1]], cols[i][s.nodes[i]])
-                    };
                     if !s.breaks[i] {
                         assert!(!blocked.contains(&(i, s.nodes[i - 1], s.nodes[i])));
                     }
                 }
-                assert!(
-                    (c - s.cost).abs() < 1e-6 * c.max(1.0),
-                    "k {k}: path cost {c} vs reported {}",
-                    s.cost
-                );
             }
         }
+    }
+
+    #[test]
+    fn a_swing_the_extruder_cannot_follow_becomes_a_break() {
+        let m = Machine::default();
+        let cm = CostModel::new(&m, m.feed, m.tip_speed, 10.0);
+        // Column 1 offers only a configuration 150° of C away: printing into
+        // it over 0.5 mm would dwell ~11 s; the break is cheaper.
+        let p = |x: f64| [x, 5.0, 45.0];
+        let cols = vec![
+            vec![m.axes_at(p(0.0), (0.4, 0.0))],
+            vec![m.axes_at(p(0.5), (0.4, 150f64.to_radians()))],
+            vec![m.axes_at(p(1.0), (0.4, 150f64.to_radians()))],
+        ];
+        let lens = vec![0.5, 0.5];
+        let g = Columns {
+            cols: &cols,
+            lens: &lens,
+            cost: &cm,
+        };
+        let path = shortest_path(g, &Blocked::new());
+        assert_eq!(path.breaks, vec![false, true, false]);
     }
 }

@@ -1,14 +1,16 @@
 //! Plan quality metrics, computed the same way for the input and the plan.
 //!
-//! Per segment (consecutive waypoints of one continuous section) with part-
-//! frame length `L` and machine deltas `ΔX, ΔY, ΔZ, Δtilt, ΔC` (C unwound):
-//! the move takes `t = max(L / feed, |ΔX|/vX, |ΔY|/vY, |ΔZ|/vZ,
+//! Per segment (consecutive waypoints printed one after the other) with
+//! part-frame length `L` and machine deltas `ΔX, ΔY, ΔZ, Δtilt, ΔC` (C
+//! unwound): the move takes `t = max(L / feed, |ΔX|/vX, |ΔY|/vY, |ΔZ|/vZ,
 //! |Δtilt|/ω_tilt, |ΔC|/ω_C)` — the slowest axis sets the pace — and the tip
 //! moves over the part at `v = L / t`. The segment violates the extruder's
 //! range when `v < v_min` or `v > v_max` (paper 000, Eq. 2 and Fig. 10).
 //! `J` is Eq. 7 summed over all segments (degrees); the largest single-step
-//! `|Δtilt| + |ΔC|` is reported too.
+//! `|Δtilt| + |ΔC|` is reported too. Feed and range are the extruder's that
+//! prints the segment (support layers: the support tool's).
 
+use super::cost::CostModel;
 use crate::kinematics::{Axes, Machine};
 use serde::Serialize;
 
@@ -17,23 +19,42 @@ use serde::Serialize;
 pub struct Metrics {
     /// Waypoints.
     pub waypoints: usize,
-    /// Waypoints whose pose collides.
+    /// Visited waypoints whose pose comes within the margin of material.
     pub residual_collisions: usize,
-    /// Segments whose motion collides between the waypoints.
+    /// Moves that come within the margin of material somewhere (plan: every
+    /// move of the written program, re-checked; input: segments between
+    /// consecutive waypoints, sampled — a lower bound).
     pub colliding_edges: usize,
+    /// Moves of the written program checked (plan only).
+    pub program_moves: usize,
     /// Share of segments whose tip speed leaves [v_min, v_max] (percent).
     pub speed_violation_pct: f64,
-    /// Eq. 7: total |Δtilt| + |ΔC| (degrees).
+    /// Eq. 7: total |Δtilt| + |ΔC| over printed segments (degrees).
     pub j_deg: f64,
     /// Largest single-step |Δtilt| + |ΔC| (degrees).
     pub max_step_deg: f64,
-    /// Waypoints in the singular region.
+    /// Waypoints whose (planned, or input) orientation lies in the singular
+    /// region — the `singular` / `was_singular` flags of plan.csv.
     pub singular_waypoints: usize,
-    /// Breaks in the toolpath (lift and travel inside a section).
+    /// Breaks in the toolpath (retract, lift, travel, approach inside a section).
     pub breaks: usize,
-    /// Waypoints whose axes leave the machine's ranges (X, Y, Z, tilt, and C
-    /// where the machine limits it).
+    /// Waypoints not visited (no safe orientation, or out of the axis ranges).
+    pub skipped_waypoints: usize,
+    /// Of those, waypoints outside the machine's axis ranges in every orientation.
+    pub unreachable_waypoints: usize,
+    /// Of those, waypoints with no printed bead on either side (nothing to
+    /// print there).
+    pub isolated_waypoints: usize,
+    /// Program positions outside the machine's axis ranges (input: waypoints).
     pub axis_limit_violations: usize,
+    /// Largest distance of the nozzle tip from its bead while extruding,
+    /// under joint-linear interpolation (mm; plan only).
+    pub tip_deviation_max_mm: f64,
+    /// Largest C rotation between two extruding moves (degrees; plan only).
+    pub travel_c_max_deg: f64,
+    /// Share of printed segments whose layer height is the clamp's bound,
+    /// not a measurement (percent; plan only).
+    pub height_clamped_pct: f64,
     /// Largest angle between a waypoint's orientation and its input one (degrees).
     pub max_deviation_deg: f64,
     /// Mean of that angle (degrees).
@@ -41,18 +62,9 @@ pub struct Metrics {
 }
 
 /// Tip speed over the part for a move of part-frame length `len` between
-/// two configurations.
-pub fn tip_speed(m: &Machine, len: f64, a: &Axes, b: &Axes) -> f64 {
-    let t = [
-        len / m.feed,
-        (b.xyz[0] - a.xyz[0]).abs() / m.x.speed,
-        (b.xyz[1] - a.xyz[1]).abs() / m.y.speed,
-        (b.xyz[2] - a.xyz[2]).abs() / m.z.speed,
-        (b.tilt - a.tilt).abs().to_degrees() / m.tilt.speed,
-        (b.c - a.c).abs().to_degrees() / m.c.speed,
-    ]
-    .into_iter()
-    .fold(0.0, f64::max);
+/// two configurations, printing with `cm`'s feed.
+pub fn tip_speed(cm: &CostModel, len: f64, a: &Axes, b: &Axes) -> f64 {
+    let t = cm.duration(len, a, b);
     if t > 0.0 {
         len / t
     } else {
@@ -71,7 +83,7 @@ pub struct SegmentStats {
 
 impl SegmentStats {
     /// Add the segment `a → b` of part-frame length `len`.
-    pub fn add(&mut self, m: &Machine, len: f64, a: &Axes, b: &Axes) {
+    pub fn add(&mut self, cm: &CostModel, len: f64, a: &Axes, b: &Axes) {
         let step = ((b.tilt - a.tilt).abs() + (b.c - a.c).abs()).to_degrees();
         self.j += step;
         self.max_step = self.max_step.max(step);
@@ -79,8 +91,8 @@ impl SegmentStats {
             return; // Repeated waypoint: no speed to speak of.
         }
         self.segments += 1;
-        let v = tip_speed(m, len, a, b);
-        let [lo, hi] = m.tip_speed;
+        let v = tip_speed(cm, len, a, b);
+        let [lo, hi] = cm.tip_speed;
         if v < lo * (1.0 - 1e-9) || v > hi * (1.0 + 1e-9) {
             self.violations += 1;
         }
@@ -96,12 +108,30 @@ impl SegmentStats {
 
 /// Is `a` outside the machine's axis ranges?
 pub fn outside_limits(m: &Machine, a: &Axes) -> bool {
-    let out = |v: f64, l: &crate::kinematics::AxisLimits| v < l.min || v > l.max;
+    let out = |v: f64, l: &crate::kinematics::AxisLimits| v < l.min - 1e-9 || v > l.max + 1e-9;
     out(a.xyz[0], &m.x)
         || out(a.xyz[1], &m.y)
         || out(a.xyz[2], &m.z)
         || out(a.tilt.to_degrees(), &m.tilt)
         || m.c
             .range
-            .is_some_and(|[lo, hi]| a.c.to_degrees() < lo || a.c.to_degrees() > hi)
+            .is_some_and(|[lo, hi]| a.c.to_degrees() < lo - 1e-9 || a.c.to_degrees() > hi + 1e-9)
+}
+
+/// Largest distance of the tip from the straight segment between its ends
+/// over the joint-linear move `a → b`, sampled as a controller
+/// interpolates (64 steps).
+pub fn tip_deviation(m: &Machine, a: &Axes, b: &Axes) -> f64 {
+    let (pa, pb) = (m.tip(a), m.tip(b));
+    let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
+    let sl = (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2]).max(1e-18);
+    (1..64)
+        .map(|k| {
+            let t = m.tip(&a.lerp(b, k as f64 / 64.0));
+            let d: [f64; 3] = std::array::from_fn(|i| t[i] - pa[i]);
+            let u = ((d[0] * seg[0] + d[1] * seg[1] + d[2] * seg[2]) / sl).clamp(0.0, 1.0);
+            let q: [f64; 3] = std::array::from_fn(|i| d[i] - u * seg[i]);
+            (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
+        })
+        .fold(0.0, f64::max)
 }

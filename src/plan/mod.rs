@@ -1,36 +1,50 @@
-//! The planner (paper 000, Algorithm 1): from waypoints to machine axes.
+//! The planner (paper 000, Algorithm 1): from waypoints to the program a
+//! machine runs. [`plan`] runs these stages over one [`State`]:
 //!
-//! Per continuous section of a layer (a layer splits where consecutive
-//! waypoints are more than `jump` mm apart):
-//! 1. smooth the orientations ([`smooth`]);
-//! 2. give singular runs their rotary angles ([`singular`]);
-//! 3. check every waypoint's pose, both IK solutions, in one batch;
-//! 4. sample collision-free variants for the colliding ones, in batches
-//!    ([`candidates`]);
-//! 5. find the shortest path through the layered graph of configurations
-//!    ([`graph`]), checking the motion along the chosen path's edges in
-//!    batches and re-solving without the colliding ones;
-//! 6. unwind C, compute X, Y, Z (Table I) and the extrusion (Eq. 1).
-//!
-//! The input is measured the same way (direct IK, C unwound, orientations
-//! unchanged) so the report compares like with like ([`metrics`]).
+//! 1. **smooth** the orientations per continuous run ([`smooth`]);
+//! 2. give **singular** runs their rotary angles ([`singular`]);
+//! 3. **columns**: every waypoint's candidate configurations — both IK
+//!    solutions of its orientation, else collision-free variants
+//!    ([`candidates`]), else every orientation the machine can reach 5°
+//!    apart; only configurations inside the tilt, X, Y, Z (and C) ranges
+//!    are considered. A waypoint with none is skipped and reported;
+//! 4. **graph**: per section, the cheapest path through the layered graph
+//!    ([`graph`], priced by [`cost`]), every printing move on it proven
+//!    free ([`motion`]); moves that are not get blocked and the section is
+//!    solved again, until the whole path is proven;
+//! 5. **extrusion**: layer heights from the surfaces below ([`extrusion`]),
+//!    E along the beads (Eq. 1);
+//! 6. **program**: every move the machine makes ([`program`]), travels
+//!    proven or re-planned;
+//! 7. **metrics**: the written program re-checked pose by pose and move by
+//!    move, and the input measured by the same rules ([`metrics`]).
 
 pub mod candidates;
+pub mod cost;
+pub mod extrusion;
 pub mod graph;
 pub mod metrics;
 pub mod motion;
+pub mod program;
 pub mod singular;
 pub mod smooth;
+pub mod spread;
 
 use crate::collide::{Backend, CollideError};
-use crate::kinematics::{head_pose, ik_angles, linear_axes, orientation, wrap, Axes, Machine};
-use crate::scene::{Query, Scene};
+use crate::kinematics::{ik_angles, orientation, round_written, wrap, Axes, Machine};
+use crate::scene::Scene;
 use crate::toolpath::Toolpath;
 use candidates::Sampling;
+use cost::{CostModel, Winding};
+use extrusion::Height;
+use graph::{Blocked, Columns, Path};
 use metrics::{Metrics, SegmentStats};
+use motion::{tip_subdivision, MoveSpec, Prover};
+use program::{Assembly, Program, SectionPlan, Stop};
 use rayon::prelude::*;
 use smooth::Smoothing;
 use std::collections::HashSet;
+use std::ops::Range;
 use std::time::Instant;
 
 /// What can go wrong planning.
@@ -57,13 +71,26 @@ pub struct PlanOptions {
     pub beta: f64,
     /// Variant generation.
     pub sampling: Sampling,
-    /// Largest movement of any head point between two motion checks (mm).
+    /// Initial spacing of the samples proving a move: the largest distance
+    /// any head point moves between two of them (mm).
     pub edge_step: f64,
     /// Consecutive waypoints farther apart than this start a new section (mm).
     pub jump: f64,
     /// Paper 002's interval subsampling: solve every `subsample`-th column
     /// first, then the intervals (1 = exact, the default).
     pub subsample: usize,
+    /// Safety margin (mm); `None`: the machine file's.
+    pub margin: Option<f64>,
+    /// Weight of a second of extruder dwell against a second of machine
+    /// time in the graph's costs ([`cost`]).
+    pub dwell_weight: f64,
+    /// Spacing of the exhaustive orientation search (radians).
+    pub exhaustive_step: f64,
+    /// Most candidate configurations kept per waypoint.
+    pub max_configs: usize,
+    /// How far (radians) an orientation may move so that C can turn no
+    /// faster than the extruder allows ([`spread`]); 0 turns it off.
+    pub spread_tolerance: f64,
 }
 
 impl Default for PlanOptions {
@@ -73,36 +100,63 @@ impl Default for PlanOptions {
             alpha: 4.5f64.to_radians(),
             beta: 45f64.to_radians(),
             sampling: Sampling::Random { k: 24 },
-            edge_step: 0.5,
+            edge_step: 0.3,
             jump: 5.0,
             subsample: 1,
+            margin: None,
+            dwell_weight: 10.0,
+            exhaustive_step: 5f64.to_radians(),
+            max_configs: 16,
+            spread_tolerance: 4.5f64.to_radians(),
         }
     }
 }
 
-/// One planned waypoint.
+/// Why a waypoint is not visited.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Skip {
+    /// Every reachable orientation (5° apart) comes within the margin of
+    /// the platform or printed material.
+    Residual,
+    /// No orientation puts the machine's axes inside their ranges.
+    Unreachable,
+    /// Nothing to print there: no bead is printed to or from it (it stands
+    /// alone between jumps or breaks), so visiting it would only add two
+    /// travels.
+    Isolated,
+}
+
+/// One waypoint of the plan.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlannedWaypoint {
     /// Layer index.
     pub layer: usize,
+    /// Printed by the support extruder (a support layer).
+    pub support: bool,
     /// Tip position, part frame (mm).
     pub p: [f64; 3],
-    /// Planned nozzle direction, part frame.
+    /// Planned nozzle direction, part frame (the input's when skipped).
     pub n: [f64; 3],
-    /// Machine axes (C unwound along the section).
+    /// Machine axes as written (C unwound); the input's when skipped.
     pub axes: Axes,
-    /// Cumulative extrusion within the layer (mm of filament).
+    /// Extruder position (mm of filament, absolute within the layer).
     pub e: f64,
-    /// First waypoint of a section (travel before it).
+    /// Layer height used for extrusion (mm).
+    pub height: f64,
+    /// First visited waypoint of a section (a travel comes before it).
     pub section_start: bool,
-    /// Entered through a break (lift and travel) inside a section.
+    /// Entered through a break (retract, lift, travel, approach) inside a
+    /// section.
     pub break_before: bool,
-    /// The input orientation collided.
+    /// The input orientation collides (within the margin).
     pub was_colliding: bool,
-    /// The input orientation was in the singular region.
+    /// The input orientation lies in the singular region.
+    pub was_singular: bool,
+    /// The planned orientation lies in the singular region.
     pub singular: bool,
-    /// No collision-free configuration was found.
-    pub residual: bool,
+    /// Not visited, and why.
+    pub skipped: Option<Skip>,
 }
 
 /// A plan and its report.
@@ -110,16 +164,36 @@ pub struct PlannedWaypoint {
 pub struct Plan {
     /// Waypoints in print order.
     pub waypoints: Vec<PlannedWaypoint>,
+    /// The program the machine runs.
+    pub program: Program,
     /// Metrics of the input (direct IK).
     pub input: Metrics,
-    /// Metrics of the plan.
+    /// Metrics of the written program.
     pub plan: Metrics,
-    /// Seconds per stage, in order.
-    pub stages: Vec<(String, f64)>,
+    /// Seconds and collision queries per stage, in order.
+    pub stages: Vec<Stage>,
     /// The input's machine axes (direct IK, C unwound), per waypoint.
     pub input_axes: Vec<Axes>,
     /// The singular region's half-angle used (radians).
     pub alpha: f64,
+    /// The safety margin used (mm).
+    pub margin: f64,
+    /// Things the user should know (skipped waypoints, unproven travels,
+    /// machine Z below 0), one line each.
+    pub warnings: Vec<String>,
+    /// Collision queries answered while planning.
+    pub queries: u64,
+}
+
+/// One stage of the planner: its name, wall time and collision queries.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stage {
+    /// Name (`columns`, `graph`, …).
+    pub name: String,
+    /// Wall time (s).
+    pub seconds: f64,
+    /// Collision queries answered.
+    pub queries: u64,
 }
 
 /// Does a half-turn about the head axis map the head onto itself? Then the
@@ -137,79 +211,69 @@ pub fn half_turn_symmetric(scene: &Scene) -> bool {
     v.iter().all(|p| set.contains(&key([-p[0], -p[1], p[2]])))
 }
 
-struct Ctx<'a> {
-    scene: &'a Scene,
-    machine: &'a Machine,
-    backend: &'a dyn Backend,
-    symmetric: bool,
-    reach: f64,
-    edge_step: f64,
+/// The head's largest distance from its tip (mm).
+pub fn head_reach(scene: &Scene) -> f64 {
+    scene
+        .head
+        .mesh
+        .vertices
+        .iter()
+        .map(|v| (v[0] as f64).hypot(v[1] as f64).hypot(v[2] as f64))
+        .fold(0.0, f64::max)
 }
 
-impl Ctx<'_> {
-    fn axes(&self, p: [f64; 3], (t, c): (f64, f64)) -> Axes {
-        let m = self.machine;
-        Axes {
-            xyz: linear_axes(m.configuration, m.rotary, m.offsets(), p, t, c),
-            tilt: t,
-            c,
-        }
-    }
+/// How much shorter a bead between two written (rounded) positions can be
+/// than between the waypoints themselves (mm): 0.0005 mm on each linear axis
+/// and 0.0005° on each angle, at both ends, 100 mm from the rotary axes.
+const ROUNDING_MM: f64 = 0.004;
 
-    /// Verdicts for configurations `(waypoint, (tilt, c))`.
-    fn check_configs(
-        &self,
-        items: &[(usize, (f64, f64))],
-        pos: &[[f64; 3]],
-    ) -> Result<Vec<bool>, PlanError> {
-        let rot = self.machine.rotary;
-        let queries: Vec<Query> = items
-            .par_iter()
-            .map(|&(i, (t, c))| Query {
-                pose: head_pose(rot, pos[i], t, c),
-                cutoff: self.scene.waypoint_queries[i].cutoff,
-                margin: 0.0,
-            })
-            .collect();
-        Ok(self.backend.evaluate(&queries)?)
-    }
+/// Sample spacing of the input's own moves (mm of head motion).
+pub const INPUT_STEP: f64 = 2.0;
 
-    /// Do the moves `(waypoint i, a) → (waypoint i + 1, b)` collide? Checks
-    /// are `step` mm of head motion apart.
-    fn check_moves(
-        &self,
-        moves: &[(usize, Axes, Axes)],
-        step: f64,
-        max_samples: usize,
-    ) -> Result<Vec<bool>, PlanError> {
-        let per: Vec<Vec<Query>> = moves
-            .par_iter()
-            .map(|(i, a, b)| {
-                let mut q = Vec::new();
-                let cutoff = self.scene.waypoint_queries[*i].cutoff;
-                motion::between(
-                    self.machine,
-                    a,
-                    b,
-                    cutoff,
-                    self.reach,
-                    step,
-                    max_samples,
-                    &mut q,
-                );
-                q
-            })
-            .collect();
-        let flat: Vec<Query> = per.iter().flatten().copied().collect();
-        let verdicts = self.backend.evaluate(&flat)?;
-        let mut out = Vec::with_capacity(moves.len());
-        let mut k = 0;
-        for q in &per {
-            out.push(verdicts[k..k + q.len()].iter().any(|&v| v));
-            k += q.len();
-        }
-        Ok(out)
-    }
+/// The cutoff of waypoint `g`'s pose: material of earlier waypoints.
+fn cutoff(g: usize) -> u32 {
+    g as u32 + 1
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2])
+}
+
+/// The graph search's bookkeeping per section.
+struct Search {
+    blocked: Vec<Blocked>,
+    verified: Vec<HashSet<(usize, usize, usize)>>,
+    paths: Vec<Path>,
+}
+
+/// The planner's state, filled stage by stage.
+struct State<'a> {
+    scene: &'a Scene,
+    machine: &'a Machine,
+    opts: &'a PlanOptions,
+    symmetric: bool,
+    /// Tip positions, input and smoothed directions, layer of each waypoint.
+    pos: Vec<[f64; 3]>,
+    n0: Vec<[f64; 3]>,
+    n1: Vec<[f64; 3]>,
+    layer_of: Vec<usize>,
+    /// Per layer: support layer? global index of its first waypoint.
+    support: Vec<bool>,
+    layer_start: Vec<usize>,
+    /// Continuous runs (a layer, split at jumps).
+    runs: Vec<Range<usize>>,
+    /// Singular-run angles, and whether the input orientation is singular.
+    fixed: Vec<Option<(f64, f64)>>,
+    was_singular: Vec<bool>,
+    /// Candidate configurations per waypoint (as written).
+    cols: Vec<Vec<Axes>>,
+    skip: Vec<Option<Skip>>,
+    /// Runs split at skipped waypoints, and their chosen paths.
+    sections: Vec<Range<usize>>,
+    paths: Vec<Path>,
+    heights: Vec<Height>,
+    e: Vec<f64>,
+    warnings: Vec<String>,
 }
 
 /// Plan `toolpath` (whose scene is `scene`) for `machine`, answering every
@@ -226,357 +290,930 @@ pub fn plan(
     if scene.waypoint_queries.len() != n_wp {
         return Err(PlanError::Mismatch(scene.waypoint_queries.len(), n_wp));
     }
+    let margin = opts.margin.unwrap_or(machine.margin);
+    let prover = Prover::new(machine, backend, head_reach(scene), margin, opts.edge_step);
     let mut stages = Vec::new();
     let mut clock = Instant::now();
-    let mut lap = |name: &str, stages: &mut Vec<(String, f64)>| {
-        stages.push((name.to_string(), clock.elapsed().as_secs_f64()));
+    let mut asked = 0;
+    let mut lap = |name: &str, stages: &mut Vec<Stage>| {
+        let q = prover.queries();
+        stages.push(Stage {
+            name: name.to_string(),
+            seconds: clock.elapsed().as_secs_f64(),
+            queries: q - asked,
+        });
+        asked = q;
         clock = Instant::now();
     };
-    let reach = scene
-        .head
-        .mesh
-        .vertices
-        .iter()
-        .map(|v| (v[0] as f64).hypot(v[1] as f64).hypot(v[2] as f64))
-        .fold(0.0, f64::max);
-    let ctx = Ctx {
-        scene,
-        machine,
-        backend,
-        symmetric: half_turn_symmetric(scene),
-        reach,
-        edge_step: opts.edge_step.max(1e-3),
-    };
-    let rot = machine.rotary;
+    let mut st = State::new(scene, toolpath, machine, opts);
 
-    // Flatten the toolpath and split it into sections.
-    let mut pos = Vec::with_capacity(n_wp);
-    let mut n0 = Vec::with_capacity(n_wp);
-    let mut layer_of = Vec::with_capacity(n_wp);
-    let mut sections: Vec<std::ops::Range<usize>> = Vec::new();
-    for (k, layer) in toolpath.layers.iter().enumerate() {
-        // A section starts with each layer and after each jump.
-        let mut start = pos.len();
-        for w in &layer.waypoints {
-            let p = w.pos.map(|x| x as f64);
-            if pos.len() > start {
-                let q: [f64; 3] = pos[pos.len() - 1];
-                if (p[0] - q[0]).hypot(p[1] - q[1]).hypot(p[2] - q[2]) > opts.jump {
-                    sections.push(start..pos.len());
-                    start = pos.len();
-                }
-            }
-            pos.push(p);
-            let d = w.dir.map(|x| x as f64);
-            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            n0.push(d.map(|x| x / l));
-            layer_of.push(k);
-        }
-        if start < pos.len() {
-            sections.push(start..pos.len());
-        }
-    }
-
-    // 1–2: smoothing and singular processing, section by section.
     progress("smoothing");
-    let mut n1 = vec![[0.0; 3]; n_wp];
-    for r in &sections {
-        n1[r.clone()].copy_from_slice(&smooth::smooth(&n0[r.clone()], opts.smoothing));
-    }
+    st.smooth();
     lap("smooth", &mut stages);
     progress("singularities");
-    let mut fixed = vec![None; n_wp];
-    let mut singular = vec![false; n_wp];
-    for r in &sections {
-        let (f, s) = singular::process(rot, &n1[r.clone()], opts.alpha);
-        fixed[r.clone()].clone_from_slice(&f);
-        singular[r.clone()].copy_from_slice(&s);
-    }
-    // Each waypoint's base configurations: the singular angles and their
-    // mirror, or both IK solutions of the smoothed orientation.
-    let base: Vec<[(f64, f64); 2]> = (0..n_wp)
-        .map(|i| match fixed[i] {
-            Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
-            None => ik_angles(rot, n1[i]),
-        })
-        .collect();
+    st.singularities();
     lap("singularities", &mut stages);
-
-    // 3: every base configuration in one batch.
     progress("collisions");
-    let items: Vec<(usize, (f64, f64))> = (0..n_wp)
-        .flat_map(|i| {
-            let k = if ctx.symmetric { 1 } else { 2 };
-            base[i][..k]
-                .iter()
-                .map(move |&b| (i, b))
-                .collect::<Vec<_>>()
-        })
-        .collect();
-    let v = ctx.check_configs(&items, &pos)?;
-    let mut cols: Vec<Vec<(f64, f64)>> = vec![Vec::new(); n_wp];
-    for (k, &(i, b)) in items.iter().enumerate() {
-        if !v[k] {
-            cols[i].push(b);
-            if ctx.symmetric {
-                cols[i].push(base[i][1]);
-            }
-        }
-    }
-    lap("collisions", &mut stages);
-
-    // 4: variants for waypoints with no free base configuration.
-    progress("variants");
-    let mut open: Vec<usize> = (0..n_wp).filter(|&i| cols[i].is_empty()).collect();
-    let mut round = 0u32;
-    while !open.is_empty() {
-        let mut items = Vec::new();
-        for &i in &open {
-            let centre = fixed[i].map_or(n1[i], |(t, c)| orientation(rot, t, c));
-            // The first round also offers the waypoint's own, unsmoothed
-            // orientation: smoothing must not make a free waypoint collide.
-            let own = (round == 0).then_some(n0[i]);
-            // One sample pattern for every waypoint: neighbours get matching
-            // candidates, so the graph can keep the motion smooth.
-            let sampled = candidates::round(centre, 0, round, opts.sampling, opts.beta, opts.alpha);
-            for d in own.into_iter().chain(sampled) {
-                for (j, s) in ik_angles(rot, d).into_iter().enumerate() {
-                    if j == 0 || !ctx.symmetric {
-                        items.push((i, s));
-                    }
-                }
-            }
-        }
-        if items.is_empty() {
-            break; // Sampling exhausted: what is left stays colliding.
-        }
-        let v = ctx.check_configs(&items, &pos)?;
-        for (k, &(i, s)) in items.iter().enumerate() {
-            if !v[k] && cols[i].len() < 16 {
-                cols[i].push(s);
-                if ctx.symmetric {
-                    cols[i].push((-s.0, wrap(s.1 + std::f64::consts::PI)));
-                }
-            }
-        }
-        open.retain(|&i| cols[i].is_empty());
-        round += 1;
-    }
-    // Configurations the tilt axis cannot reach are dropped (kept only where
-    // nothing else exists, and then reported).
-    let (tmin, tmax) = (machine.tilt.min.to_radians(), machine.tilt.max.to_radians());
-    for c in cols.iter_mut() {
-        c.retain(|&(t, _)| t >= tmin - 1e-12 && t <= tmax + 1e-12);
-    }
-    let residual: Vec<bool> = (0..n_wp).map(|i| cols[i].is_empty()).collect();
-    for i in 0..n_wp {
-        if cols[i].is_empty() {
-            cols[i] = base[i].to_vec();
-        }
-    }
-    lap("variants", &mut stages);
-
-    // 5: shortest paths with lazily checked motions.
+    st.columns(&prover)?;
+    lap("columns", &mut stages);
     progress("graph");
-    let mut chosen = vec![(0.0, 0.0); n_wp];
-    let mut breaks = vec![false; n_wp];
-    let mut colliding_edges = 0;
-    let mut blocked: Vec<HashSet<(usize, usize, usize)>> = vec![HashSet::new(); sections.len()];
-    let mut verified: Vec<HashSet<(usize, usize, usize)>> = vec![HashSet::new(); sections.len()];
-    let mut paths: Vec<graph::Path> = sections
-        .par_iter()
-        .map(|r| graph::shortest_path_subsampled(&cols[r.clone()], &HashSet::new(), opts.subsample))
-        .collect();
-    for _ in 0..32 {
-        let mut moves = Vec::new();
-        let mut keys = Vec::new();
-        for (s, r) in sections.iter().enumerate() {
-            let p = &paths[s];
-            for k in 1..r.len() {
-                let key = (k, p.nodes[k - 1], p.nodes[k]);
-                if p.breaks[k] || verified[s].contains(&key) {
-                    continue;
-                }
-                let i = r.start + k - 1;
-                let a = ctx.axes(pos[i], cols[i][key.1]);
-                let mut bb = cols[i + 1][key.2];
-                bb.1 = a.c + wrap(bb.1 - a.c);
-                moves.push((i, a, ctx.axes(pos[i + 1], bb)));
-                keys.push((s, key));
-            }
-        }
-        if moves.is_empty() {
-            break;
-        }
-        let v = ctx.check_moves(&moves, ctx.edge_step, usize::MAX)?;
-        let mut dirty = HashSet::new();
-        for (k, &(s, key)) in keys.iter().enumerate() {
-            verified[s].insert(key);
-            if v[k] {
-                blocked[s].insert(key);
-                dirty.insert(s);
-            }
-        }
-        if dirty.is_empty() {
-            break;
-        }
-        for s in dirty {
-            paths[s] = graph::shortest_path_subsampled(
-                &cols[sections[s].clone()],
-                &blocked[s],
-                opts.subsample,
-            );
-        }
-    }
-    for (s, r) in sections.iter().enumerate() {
-        let p = &paths[s];
-        for k in 0..r.len() {
-            chosen[r.start + k] = cols[r.start + k][p.nodes[k]];
-            breaks[r.start + k] = p.breaks[k];
-            if k > 0 && !p.breaks[k] && blocked[s].contains(&(k, p.nodes[k - 1], p.nodes[k])) {
-                colliding_edges += 1;
-            }
-        }
-    }
+    st.graph(&prover)?;
     lap("graph", &mut stages);
-
-    // 6: axes with C unwound, extrusion.
-    progress("output");
-    let heights = extrusion_heights(&pos, &layer_of, machine.extrusion.default_height);
-    let mut out = Vec::with_capacity(n_wp);
-    let mut section_start = vec![false; n_wp];
-    for r in &sections {
-        section_start[r.start] = true;
-    }
-    let mut e = 0.0;
-    for i in 0..n_wp {
-        let (t, mut c) = chosen[i];
-        if i > 0 && !section_start[i] {
-            let prev: &PlannedWaypoint = &out[i - 1];
-            c = prev.axes.c + wrap(c - prev.axes.c);
-        }
-        if i == 0 || layer_of[i] != layer_of[i - 1] {
-            e = 0.0;
-        } else if !section_start[i] && !breaks[i] {
-            let q = pos[i - 1];
-            let len = (pos[i][0] - q[0])
-                .hypot(pos[i][1] - q[1])
-                .hypot(pos[i][2] - q[2]);
-            let ex = &machine.extrusion;
-            e += ex.k * 0.5 * (heights[i - 1] + heights[i]) * ex.width * len;
-        }
-        out.push(PlannedWaypoint {
-            layer: layer_of[i],
-            p: pos[i],
-            n: orientation(rot, t, c),
-            axes: ctx.axes(pos[i], (t, c)),
-            e,
-            section_start: section_start[i],
-            break_before: breaks[i],
-            was_colliding: false,
-            singular: singular[i],
-            residual: residual[i],
-        });
-    }
-    lap("output", &mut stages);
-
-    // Metrics: the plan, then the input measured the same way.
+    progress("extrusion");
+    st.extrusion();
+    lap("extrusion", &mut stages);
+    progress("program");
+    let program = st.program(&prover)?;
+    lap("program", &mut stages);
     progress("metrics");
-    let mut plan_m = Metrics {
-        waypoints: n_wp,
-        residual_collisions: residual.iter().filter(|&&r| r).count(),
-        colliding_edges,
-        singular_waypoints: out
-            .iter()
-            .filter(|w| singular::is_singular(w.n, opts.alpha * (1.0 - 1e-9)))
-            .count(),
-        breaks: breaks.iter().filter(|&&b| b).count(),
-        ..Metrics::default()
-    };
-    segment_stats(machine, &out, &sections).finish(&mut plan_m);
-    let dev: Vec<f64> = out
-        .iter()
-        .zip(&n0)
-        .map(|(w, n)| {
-            (w.n[0] * n[0] + w.n[1] * n[1] + w.n[2] * n[2])
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees()
+    let (plan_m, waypoints) = st.plan_metrics(&program, &prover)?;
+    lap("verify", &mut stages);
+    let (input_m, input_axes, was_colliding) = st.input_metrics(&prover)?;
+    lap("input", &mut stages);
+    let waypoints = waypoints
+        .into_iter()
+        .zip(&input_axes)
+        .zip(was_colliding)
+        .map(|((mut w, ia), wc)| {
+            w.was_colliding = wc;
+            if w.skipped.is_some() {
+                w.axes = *ia;
+            }
+            w
         })
         .collect();
-    plan_m.max_deviation_deg = dev.iter().copied().fold(0.0, f64::max);
-    plan_m.axis_limit_violations = out
-        .iter()
-        .filter(|w| metrics::outside_limits(machine, &w.axes))
-        .count();
-    plan_m.mean_deviation_deg = dev.iter().sum::<f64>() / dev.len().max(1) as f64;
-
-    let input_axes = direct_ik(&ctx, &pos, &n0, &sections);
-    let items: Vec<(usize, (f64, f64))> = (0..n_wp)
-        .map(|i| (i, (input_axes[i].tilt, input_axes[i].c)))
-        .collect();
-    let hit = ctx.check_configs(&items, &pos)?;
-    let mut moves = Vec::new();
-    for r in &sections {
-        for i in r.start..r.end.saturating_sub(1) {
-            moves.push((i, input_axes[i], input_axes[i + 1]));
-        }
-    }
-    // The input's moves only feed its report; its wild C swings (hundreds of
-    // degrees between neighbours) would take millions of checks at the
-    // plan's spacing, so they are checked 4× coarser and at most 16 times
-    // each: its colliding-edge count is a lower bound.
-    let edge_hits = ctx.check_moves(&moves, 4.0 * ctx.edge_step, 16)?;
-    let input_wp: Vec<PlannedWaypoint> = (0..n_wp)
-        .map(|i| PlannedWaypoint {
-            axes: input_axes[i],
-            n: n0[i],
-            p: pos[i],
-            break_before: false,
-            ..out[i].clone()
-        })
-        .collect();
-    let mut input_m = Metrics {
-        waypoints: n_wp,
-        residual_collisions: hit.iter().filter(|&&h| h).count(),
-        colliding_edges: edge_hits.iter().filter(|&&h| h).count(),
-        singular_waypoints: n0
-            .iter()
-            .filter(|n| singular::is_singular(**n, opts.alpha))
-            .count(),
-        breaks: 0,
-        ..Metrics::default()
-    };
-    segment_stats(machine, &input_wp, &sections).finish(&mut input_m);
-    input_m.axis_limit_violations = input_axes
-        .iter()
-        .filter(|a| metrics::outside_limits(machine, a))
-        .count();
-    for (w, h) in out.iter_mut().zip(&hit) {
-        w.was_colliding = *h;
-    }
-    lap("metrics", &mut stages);
     Ok(Plan {
-        waypoints: out,
+        waypoints,
+        program,
         input: input_m,
         plan: plan_m,
         stages,
         input_axes,
         alpha: opts.alpha,
+        margin,
+        warnings: st.warnings,
+        queries: prover.queries(),
     })
 }
 
-/// Direct IK of the input: per waypoint the solution closest to the
-/// previous one (the first: the smaller |C|), C unwound.
-fn direct_ik(
-    ctx: &Ctx,
+impl<'a> State<'a> {
+    /// Flatten the toolpath and split it into continuous runs.
+    fn new(
+        scene: &'a Scene,
+        toolpath: &Toolpath,
+        machine: &'a Machine,
+        opts: &'a PlanOptions,
+    ) -> Self {
+        let n_wp = toolpath.waypoint_count();
+        let mut pos = Vec::with_capacity(n_wp);
+        let mut n0 = Vec::with_capacity(n_wp);
+        let mut layer_of = Vec::with_capacity(n_wp);
+        for (k, w) in toolpath.iter() {
+            pos.push(w.pos.map(|x| x as f64));
+            let d = w.dir.map(|x| x as f64);
+            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            n0.push(d.map(|x| x / l));
+            layer_of.push(k);
+        }
+        let runs = runs(toolpath, opts.jump);
+        State {
+            scene,
+            machine,
+            opts,
+            symmetric: half_turn_symmetric(scene),
+            n1: n0.clone(),
+            pos,
+            n0,
+            layer_of,
+            support: toolpath.layers.iter().map(|l| l.is_support()).collect(),
+            layer_start: toolpath.layer_offsets(),
+            runs,
+            fixed: vec![None; n_wp],
+            was_singular: vec![false; n_wp],
+            cols: vec![Vec::new(); n_wp],
+            skip: vec![None; n_wp],
+            sections: Vec::new(),
+            paths: Vec::new(),
+            heights: Vec::new(),
+            e: vec![0.0; n_wp],
+            warnings: Vec::new(),
+        }
+    }
+
+    /// Stage 1: smoothing, run by run.
+    fn smooth(&mut self) {
+        for r in &self.runs {
+            let s = smooth::smooth(&self.n0[r.clone()], self.opts.smoothing);
+            self.n1[r.clone()].copy_from_slice(&s);
+        }
+    }
+
+    /// Stage 2: singular runs get angles from their anchors.
+    fn singularities(&mut self) {
+        let rot = self.machine.rotary;
+        for r in &self.runs {
+            let (f, _) = singular::process(rot, &self.n1[r.clone()], self.opts.alpha);
+            self.fixed[r.clone()].clone_from_slice(&f);
+        }
+        for (s, n) in self.was_singular.iter_mut().zip(&self.n0) {
+            *s = singular::is_singular(*n, self.opts.alpha);
+        }
+    }
+
+    /// The axes of `(tilt, c)` at waypoint `g`, when every axis is within
+    /// the machine's ranges (C: some whole turn of it).
+    fn feasible(&self, g: usize, tc: (f64, f64)) -> Option<Axes> {
+        let m = self.machine;
+        let a = m.axes_at(self.pos[g], tc);
+        let t = a.tilt.to_degrees();
+        let inside = |v: f64, l: &crate::kinematics::AxisLimits| v >= l.min && v <= l.max;
+        let ok = t >= m.tilt.min - 1e-9
+            && t <= m.tilt.max + 1e-9
+            && inside(a.xyz[0], &m.x)
+            && inside(a.xyz[1], &m.y)
+            && inside(a.xyz[2], &m.z)
+            && m.c.range.is_none_or(|r| !windings(a.c, r).is_empty());
+        ok.then_some(a)
+    }
+
+    /// Check IK pairs `(waypoint, [solution, mirror])` and add the free,
+    /// feasible configurations to the columns (up to the cap). A
+    /// half-turn-symmetric head needs one query per pair. Returns whether
+    /// any feasible configuration was offered per item.
+    fn offer(
+        &mut self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+    ) -> Result<Vec<bool>, PlanError> {
+        let cand: Vec<Vec<Axes>> = items
+            .par_iter()
+            .map(|&(g, pair)| pair.iter().filter_map(|&tc| self.feasible(g, tc)).collect())
+            .collect();
+        let mut queries = Vec::new();
+        let mut owner = Vec::new();
+        for (k, (c, &(g, _))) in cand.iter().zip(items).enumerate() {
+            let n = if self.symmetric {
+                c.len().min(1)
+            } else {
+                c.len()
+            };
+            for a in &c[..n] {
+                queries.push((*a, cutoff(g)));
+                owner.push(k);
+            }
+        }
+        let hits = prover.poses(&queries)?;
+        let mut free = vec![Vec::new(); items.len()];
+        for ((&k, h), q) in owner.iter().zip(hits).zip(&queries) {
+            if !h {
+                if self.symmetric {
+                    free[k].extend(cand[k].iter().copied());
+                } else {
+                    free[k].push(q.0);
+                }
+            }
+        }
+        let cap = self.opts.max_configs;
+        for (k, &(g, _)) in items.iter().enumerate() {
+            for a in free[k].drain(..) {
+                if self.cols[g].len() < cap && !self.cols[g].contains(&a) {
+                    self.cols[g].push(a);
+                }
+            }
+        }
+        Ok(cand.iter().map(|c| !c.is_empty()).collect())
+    }
+
+    /// Stage 3: candidate configurations per waypoint; waypoints with none
+    /// are skipped.
+    fn columns(&mut self, prover: &Prover) -> Result<(), PlanError> {
+        let rot = self.machine.rotary;
+        let n = self.pos.len();
+        // The orientation each waypoint is planned around.
+        let centre: Vec<[f64; 3]> = (0..n)
+            .map(|g| self.fixed[g].map_or(self.n1[g], |(t, c)| orientation(rot, t, c)))
+            .collect();
+        let base: Vec<(usize, [(f64, f64); 2])> = (0..n)
+            .map(|g| {
+                let pair = match self.fixed[g] {
+                    Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
+                    None => ik_angles(rot, self.n1[g]),
+                };
+                (g, pair)
+            })
+            .collect();
+        let mut offered = self.offer(prover, &base)?;
+        // Variants, round by round, for waypoints with nothing free.
+        let mut open: Vec<usize> = (0..n).filter(|&g| self.cols[g].is_empty()).collect();
+        let mut round = 0u32;
+        while !open.is_empty() {
+            let mut items = Vec::new();
+            for &g in &open {
+                // The first round also offers the waypoint's own, unsmoothed
+                // orientation: smoothing must not make a free waypoint collide.
+                let own = (round == 0).then_some(self.n0[g]);
+                // One pattern for every waypoint: neighbours get matching
+                // candidates, so the graph can keep the motion smooth.
+                let sampled = candidates::round(
+                    centre[g],
+                    0,
+                    round,
+                    self.opts.sampling,
+                    self.opts.beta,
+                    self.opts.alpha,
+                );
+                for d in own.into_iter().chain(sampled) {
+                    items.push((g, ik_angles(rot, d)));
+                }
+            }
+            if items.is_empty() {
+                break; // Sampling exhausted.
+            }
+            for (k, o) in self.offer(prover, &items)?.into_iter().enumerate() {
+                offered[items[k].0] |= o;
+            }
+            open.retain(|&g| self.cols[g].is_empty());
+            round += 1;
+        }
+        // Last resort before giving a waypoint up: every reachable
+        // orientation, nearest first, in shells of widening angle.
+        if !open.is_empty() {
+            let m = self.machine;
+            let top = m.tilt.min.abs().max(m.tilt.max.abs()).to_radians();
+            let grid = candidates::reachable_directions(top, self.opts.exhaustive_step);
+            let dirs: Vec<[f64; 3]> = grid
+                .iter()
+                .map(|p| orientation(rot, p[0].0, p[0].1))
+                .collect();
+            let shell = 30f64.to_radians();
+            let mut lo = 0.0;
+            while !open.is_empty() && lo <= std::f64::consts::PI {
+                let hi = lo + shell;
+                let mut items = Vec::new();
+                for &g in &open {
+                    let c = centre[g];
+                    let mut near: Vec<(f64, usize)> = dirs
+                        .iter()
+                        .enumerate()
+                        .map(|(k, d)| {
+                            let cos = (d[0] * c[0] + d[1] * c[1] + d[2] * c[2]).clamp(-1.0, 1.0);
+                            (cos.acos(), k)
+                        })
+                        .filter(|&(a, _)| a >= lo && a < hi)
+                        .collect();
+                    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
+                }
+                for chunk in items.chunks(1 << 20) {
+                    for (k, o) in self.offer(prover, chunk)?.into_iter().enumerate() {
+                        offered[chunk[k].0] |= o;
+                    }
+                }
+                open.retain(|&g| self.cols[g].is_empty());
+                lo = hi;
+            }
+        }
+        for g in open {
+            self.skip[g] = Some(if offered[g] {
+                Skip::Residual
+            } else {
+                Skip::Unreachable
+            });
+        }
+        // Under a C range, every whole turn of C inside it is a node.
+        if let Some(range) = self.machine.c.range {
+            for col in &mut self.cols {
+                *col = col
+                    .iter()
+                    .flat_map(|a| {
+                        windings(a.c, range)
+                            .into_iter()
+                            .map(move |c| Axes { c, ..*a })
+                    })
+                    .collect();
+            }
+        }
+        Ok(())
+    }
+
+    fn cost_model(&self, layer: usize) -> CostModel {
+        let t = self.machine.tool_for(self.support[layer]);
+        CostModel::new(self.machine, t.feed, t.tip_speed, self.opts.dwell_weight)
+    }
+
+    /// The joint-linear moves that print the bead from waypoint `g − 1` at
+    /// `a` to `g` at `b`, as the program will write them.
+    fn print_moves(&self, g: usize, a: &Axes, b: &Axes) -> Vec<MoveSpec> {
+        let mut b = *b;
+        b.c = self.unwound(a.c, b.c);
+        let mut from = *a;
+        tip_subdivision(self.machine, a, &b, self.machine.tip_tolerance)
+            .into_iter()
+            .map(|to| {
+                let mv = MoveSpec {
+                    from,
+                    to,
+                    cutoff: cutoff(g - 1),
+                };
+                from = to;
+                mv
+            })
+            .collect()
+    }
+
+    fn unwound(&self, prev: f64, c: f64) -> f64 {
+        match self.winding() {
+            Winding::Free => crate::kinematics::round_angle(prev + wrap(c - prev)),
+            Winding::Absolute => c,
+        }
+    }
+
+    fn winding(&self) -> Winding {
+        if self.machine.c.range.is_some() {
+            Winding::Absolute
+        } else {
+            Winding::Free
+        }
+    }
+
+    /// Stage 4: per section, the cheapest path whose printing moves are all
+    /// proven free; then rotations the extruder cannot follow are spread
+    /// ([`spread`]) and the sections that got new candidates solved again.
+    fn graph(&mut self, prover: &Prover) -> Result<(), PlanError> {
+        // Sections: runs split at skipped waypoints.
+        for r in &self.runs {
+            let mut start = r.start;
+            for g in r.clone() {
+                if self.skip[g].is_some() {
+                    if start < g {
+                        self.sections.push(start..g);
+                    }
+                    start = g + 1;
+                }
+            }
+            if start < r.end {
+                self.sections.push(start..r.end);
+            }
+        }
+        let lens: Vec<f64> = (0..self.pos.len())
+            .map(|g| self.pos.get(g + 1).map_or(0.0, |q| dist(self.pos[g], *q)))
+            .collect();
+        let models: Vec<CostModel> = self
+            .sections
+            .iter()
+            .map(|r| self.cost_model(self.layer_of[r.start]))
+            .collect();
+        let mut search = Search {
+            blocked: vec![Blocked::new(); self.sections.len()],
+            verified: vec![HashSet::new(); self.sections.len()],
+            paths: vec![
+                Path {
+                    nodes: Vec::new(),
+                    breaks: Vec::new(),
+                    cost: 0.0
+                };
+                self.sections.len()
+            ],
+        };
+        let all: Vec<usize> = (0..self.sections.len()).collect();
+        self.solve(&mut search, &all, &lens, &models, prover)?;
+        let changed = self.spread(&search.paths, &lens, &models, prover)?;
+        if !changed.is_empty() {
+            self.solve(&mut search, &changed, &lens, &models, prover)?;
+        }
+        self.paths = search.paths;
+        Ok(())
+    }
+
+    /// Solve sections `which` and prove their paths' printing moves,
+    /// blocking what fails and solving again until every path is proven.
+    fn solve(
+        &self,
+        search: &mut Search,
+        which: &[usize],
+        lens: &[f64],
+        models: &[CostModel],
+        prover: &Prover,
+    ) -> Result<(), PlanError> {
+        let solve_one = |s: usize, blocked: &Blocked| {
+            let r = self.sections[s].clone();
+            graph::shortest_path_subsampled(
+                Columns {
+                    cols: &self.cols[r.clone()],
+                    lens: &lens[r],
+                    cost: &models[s],
+                },
+                blocked,
+                self.opts.subsample,
+            )
+        };
+        let mut dirty: Vec<usize> = which.to_vec();
+        while !dirty.is_empty() {
+            let fresh: Vec<Path> = dirty
+                .par_iter()
+                .map(|&s| solve_one(s, &search.blocked[s]))
+                .collect();
+            for (&s, p) in dirty.iter().zip(fresh) {
+                search.paths[s] = p;
+            }
+            let mut moves = Vec::new();
+            let mut edges = Vec::new();
+            for &s in &dirty {
+                let (r, p) = (&self.sections[s], &search.paths[s]);
+                for k in 1..r.len() {
+                    let key = (k, p.nodes[k - 1], p.nodes[k]);
+                    if p.breaks[k] || search.verified[s].contains(&key) {
+                        continue;
+                    }
+                    let g = r.start + k;
+                    let first = moves.len();
+                    moves.extend(self.print_moves(
+                        g,
+                        &self.cols[g - 1][key.1],
+                        &self.cols[g][key.2],
+                    ));
+                    edges.push((s, key, first..moves.len()));
+                }
+            }
+            let hits = prover.moves(&moves)?;
+            dirty.clear();
+            for (s, key, range) in edges {
+                search.verified[s].insert(key);
+                if hits[range].iter().any(|&h| h) {
+                    search.blocked[s].insert(key);
+                    if dirty.last() != Some(&s) {
+                        dirty.push(s);
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Offer C values that spread too-fast turns ([`spread`]) as extra
+    /// candidates where they are feasible and free. Returns the sections
+    /// that got any.
+    fn spread(
+        &mut self,
+        paths: &[Path],
+        lens: &[f64],
+        models: &[CostModel],
+        prover: &Prover,
+    ) -> Result<Vec<usize>, PlanError> {
+        let tol = self.opts.spread_tolerance;
+        let mut offers: Vec<(usize, usize, Axes)> = Vec::new();
+        for (s, r) in self.sections.iter().enumerate() {
+            let (p, cm) = (&paths[s], &models[s]);
+            let cfg: Vec<Axes> = r
+                .clone()
+                .enumerate()
+                .map(|(k, g)| self.cols[g][p.nodes[k]])
+                .collect();
+            // Printed runs between breaks.
+            let mut k0 = 0;
+            for k in 1..=r.len() {
+                if k < r.len() && !p.breaks[k] {
+                    continue;
+                }
+                let run = k0..k;
+                k0 = k;
+                let slow = run
+                    .clone()
+                    .skip(1)
+                    .any(|j| cm.dwell(lens[r.start + j - 1], &cfg[j - 1], &cfg[j]) > 0.0);
+                if run.len() < 2 || !slow {
+                    continue;
+                }
+                let mut target = Vec::with_capacity(run.len());
+                for j in run.clone() {
+                    let prev = target.last().copied().unwrap_or(cfg[j].c);
+                    target.push(prev + cm.winding.dc(prev, cfg[j].c));
+                }
+                // Each bead's time at the slowest tip speed, less room for
+                // the program's rounding: the written bead may be up to
+                // ROUNDING_MM shorter, each angle 0.001° off.
+                let budget = |j: usize, speed: f64| {
+                    let len = if j > 0 { lens[r.start + j - 1] } else { 0.0 };
+                    let len = (len - ROUNDING_MM).max(0.0);
+                    ((speed * len / cm.tip_speed[0]) * (1.0 - 1e-3) - 0.002)
+                        .max(0.0)
+                        .to_radians()
+                };
+                // C first, within the whole tolerance; then the tilt, within
+                // what C left of it.
+                let tube: Vec<f64> = run
+                    .clone()
+                    .map(|j| spread::c_tube(cfg[j].tilt, tol))
+                    .collect();
+                let rate: Vec<f64> = run.clone().map(|j| budget(j, cm.rotary[1])).collect();
+                let c = spread::rate_limited(&target, &tube, &rate);
+                let tilts: Vec<f64> = run.clone().map(|j| cfg[j].tilt).collect();
+                let t_tube: Vec<f64> = run
+                    .clone()
+                    .enumerate()
+                    .map(|(i, j)| {
+                        (tol - spread::c_deviation(cfg[j].tilt, c[i] - target[i])).max(0.0)
+                    })
+                    .collect();
+                let t_rate: Vec<f64> = run.clone().map(|j| budget(j, cm.rotary[0])).collect();
+                let t = spread::rate_limited(&tilts, &t_tube, &t_rate);
+                for (i, j) in run.enumerate() {
+                    if (c[i] - target[i]).abs() > 1e-5 || (t[i] - tilts[i]).abs() > 1e-5 {
+                        let cc = match cm.winding {
+                            Winding::Free => wrap(c[i]),
+                            Winding::Absolute => c[i],
+                        };
+                        let in_range = self
+                            .machine
+                            .c
+                            .range
+                            .is_none_or(|[lo, hi]| (lo..=hi).contains(&c[i].to_degrees()));
+                        if let Some(a) = self.feasible(r.start + j, (t[i], cc)) {
+                            if in_range {
+                                offers.push((s, r.start + j, a));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let items: Vec<(Axes, u32)> = offers.iter().map(|&(_, g, a)| (a, cutoff(g))).collect();
+        let hits = prover.poses(&items)?;
+        let mut changed = Vec::new();
+        for ((s, g, a), hit) in offers.into_iter().zip(hits) {
+            if !hit && !self.cols[g].contains(&a) {
+                self.cols[g].push(a);
+                if changed.last() != Some(&s) {
+                    changed.push(s);
+                }
+            }
+        }
+        Ok(changed)
+    }
+
+    /// Stage 5: layer heights and E along the printed beads.
+    fn extrusion(&mut self) {
+        let ex = &self.machine.extrusion;
+        let d = ex.default_height;
+        self.heights = extrusion::layer_heights(
+            self.scene,
+            &self.pos,
+            &self.layer_of,
+            &self.layer_start,
+            [0.05 * d, 4.0 * d],
+        );
+        let mut e = 0.0;
+        let mut layer = usize::MAX;
+        for (s, r) in self.sections.iter().enumerate() {
+            let tool = self.machine.tool_for(self.support[self.layer_of[r.start]]);
+            for (k, g) in r.clone().enumerate() {
+                if self.layer_of[g] != layer {
+                    layer = self.layer_of[g];
+                    e = 0.0;
+                } else if k > 0 && !self.paths[s].breaks[k] {
+                    let h = 0.5 * (self.heights[g - 1].h + self.heights[g].h);
+                    e += tool.extrusion * ex.k * h * ex.width * dist(self.pos[g - 1], self.pos[g]);
+                }
+                self.e[g] = round_written(e);
+            }
+        }
+    }
+
+    /// Stage 6: the program, every travel proven or re-planned. Stops
+    /// with no printed bead on either side are not visited.
+    fn program(&mut self, prover: &Prover) -> Result<Program, PlanError> {
+        for (r, p) in self.sections.iter().zip(&self.paths) {
+            for (k, g) in r.clone().enumerate() {
+                let bead_in = k > 0 && !p.breaks[k];
+                let bead_out = k + 1 < r.len() && !p.breaks[k + 1];
+                if !bead_in && !bead_out {
+                    self.skip[g] = Some(Skip::Isolated);
+                }
+            }
+        }
+        let sections: Vec<SectionPlan> = self
+            .sections
+            .iter()
+            .zip(&self.paths)
+            .map(|(r, p)| SectionPlan {
+                layer: self.layer_of[r.start],
+                tool: self.machine.tool_for(self.support[self.layer_of[r.start]]),
+                stops: r
+                    .clone()
+                    .enumerate()
+                    .filter(|&(_, g)| self.skip[g].is_none())
+                    .map(|(k, g)| Stop {
+                        g,
+                        axes: self.cols[g][p.nodes[k]],
+                        e: self.e[g],
+                        brk: p.breaks[k],
+                    })
+                    .collect(),
+            })
+            .collect();
+        let asm = Assembly {
+            machine: self.machine,
+            tip_tolerance: self.machine.tip_tolerance,
+            sphere_z: self.sphere_z(prover.margin),
+        };
+        let (program, stuck) = asm.build(&sections, prover)?;
+        if !stuck.is_empty() {
+            self.warnings.push(format!(
+                "{} move group(s) of the program could not be proven free even at the highest travel: see colliding_edges",
+                stuck.len()
+            ));
+        }
+        Ok(program)
+    }
+
+    /// Machine Z above which no rotation of the part can reach the head
+    /// (configuration III: the part turns about the origin; the head hangs
+    /// above its tip).
+    fn sphere_z(&self, margin: f64) -> f64 {
+        let r = self
+            .scene
+            .part_tris
+            .par_iter()
+            .map(|t| {
+                [t.v0, t.v1, t.v2]
+                    .iter()
+                    .map(|v| (v[0] as f64).hypot(v[1] as f64).hypot(v[2] as f64))
+                    .fold(0.0, f64::max)
+            })
+            .reduce(|| 0.0, f64::max);
+        let below = -(self.scene.head.params.aabb_min[2] as f64).min(0.0);
+        r + margin + below + 1.0
+    }
+
+    /// Stage 7a: the written program re-checked, and the plan's figures.
+    fn plan_metrics(
+        &mut self,
+        program: &Program,
+        prover: &Prover,
+    ) -> Result<(Metrics, Vec<PlannedWaypoint>), PlanError> {
+        let m = self.machine;
+        let moves = program.moves(m);
+        // Where the program puts each visited waypoint.
+        let n = self.pos.len();
+        let mut at: Vec<Option<Axes>> = vec![None; n];
+        for (_, mv) in &moves {
+            if let Some(g) = mv.waypoint {
+                at[g] = Some(mv.to);
+            }
+        }
+        let visited: Vec<(Axes, u32)> = (0..n)
+            .filter_map(|g| at[g].map(|a| (a, cutoff(g))))
+            .collect();
+        let pose_hits = prover.poses_at(&visited, prover.margin)?;
+        let specs: Vec<MoveSpec> = moves
+            .iter()
+            .filter(|(from, mv)| *from != mv.to)
+            .map(|(from, mv)| MoveSpec {
+                from: *from,
+                to: mv.to,
+                cutoff: mv.cutoff,
+            })
+            .collect();
+        let move_hits = prover.moves(&specs)?;
+
+        let mut out = Metrics {
+            waypoints: n,
+            residual_collisions: pose_hits.iter().filter(|&&h| h).count(),
+            colliding_edges: move_hits.iter().filter(|&&h| h).count(),
+            program_moves: specs.len(),
+            ..Metrics::default()
+        };
+        // Segments printed between consecutive visited waypoints.
+        let mut stats = SegmentStats::default();
+        let mut clamped = 0usize;
+        let mut segments = 0usize;
+        for (s, r) in self.sections.iter().enumerate() {
+            let tool = m.tool_for(self.support[self.layer_of[r.start]]);
+            let cm = CostModel::new(m, tool.feed, tool.tip_speed, self.opts.dwell_weight);
+            for (k, g) in r.clone().enumerate().skip(1) {
+                if self.paths[s].breaks[k] {
+                    continue;
+                }
+                let (a, b) = (at[g - 1].expect("visited"), at[g].expect("visited"));
+                // The bead as written: between the tips the axes give.
+                let len = dist(m.tip(&a), m.tip(&b));
+                stats.add(&cm, len, &a, &b);
+                segments += 1;
+                clamped += (self.heights[g - 1].clamped || self.heights[g].clamped) as usize;
+            }
+        }
+        stats.finish(&mut out);
+        out.height_clamped_pct = 100.0 * clamped as f64 / segments.max(1) as f64;
+        // Tip deviation (sampled as a controller interpolates) and travel
+        // rotation of the written moves.
+        let mut dev: f64 = 0.0;
+        let mut travel_c: f64 = 0.0;
+        let mut run_c = 0.0;
+        for (from, mv) in &moves {
+            if mv.kind.extrudes() {
+                dev = dev.max(metrics::tip_deviation(m, from, &mv.to));
+                travel_c = travel_c.max(run_c);
+                run_c = 0.0;
+            } else {
+                run_c += (mv.to.c - from.c).abs().to_degrees();
+            }
+            if metrics::outside_limits(m, &mv.to) {
+                out.axis_limit_violations += 1;
+            }
+        }
+        out.tip_deviation_max_mm = dev;
+        out.travel_c_max_deg = travel_c.max(run_c);
+        out.breaks = self
+            .paths
+            .iter()
+            .map(|p| p.breaks.iter().filter(|&&b| b).count())
+            .sum();
+        let skipped: Vec<usize> = (0..n).filter(|&g| self.skip[g].is_some()).collect();
+        out.skipped_waypoints = skipped.len();
+        let count = |why: Skip| {
+            skipped
+                .iter()
+                .filter(|&&g| self.skip[g] == Some(why))
+                .count()
+        };
+        out.unreachable_waypoints = count(Skip::Unreachable);
+        out.isolated_waypoints = count(Skip::Isolated);
+
+        // Per waypoint.
+        let mut section_start = vec![false; n];
+        let mut brk = vec![false; n];
+        for (s, r) in self.sections.iter().enumerate() {
+            if let Some(g) = r.clone().find(|&g| self.skip[g].is_none()) {
+                section_start[g] = true;
+            }
+            for (k, g) in r.clone().enumerate() {
+                brk[g] = self.paths[s].breaks[k] && !section_start[g];
+            }
+        }
+        let rot = m.rotary;
+        let wps: Vec<PlannedWaypoint> = (0..n)
+            .map(|g| {
+                let (axes, nn) = match at[g] {
+                    Some(a) => (a, orientation(rot, a.tilt, a.c)),
+                    None => (Axes::default(), self.n0[g]),
+                };
+                PlannedWaypoint {
+                    layer: self.layer_of[g],
+                    support: self.support[self.layer_of[g]],
+                    p: self.pos[g],
+                    n: nn,
+                    axes,
+                    e: self.e[g],
+                    height: self.heights[g].h,
+                    section_start: section_start[g],
+                    break_before: brk[g],
+                    was_colliding: false,
+                    was_singular: self.was_singular[g],
+                    singular: at[g].is_some() && singular::is_singular(nn, self.opts.alpha),
+                    skipped: self.skip[g],
+                }
+            })
+            .collect();
+        out.singular_waypoints = wps.iter().filter(|w| w.singular).count();
+        let dev: Vec<f64> = wps
+            .iter()
+            .zip(&self.n0)
+            .filter(|(w, _)| w.skipped.is_none())
+            .map(|(w, n)| {
+                (w.n[0] * n[0] + w.n[1] * n[1] + w.n[2] * n[2])
+                    .clamp(-1.0, 1.0)
+                    .acos()
+                    .to_degrees()
+            })
+            .collect();
+        out.max_deviation_deg = dev.iter().copied().fold(0.0, f64::max);
+        out.mean_deviation_deg = dev.iter().sum::<f64>() / dev.len().max(1) as f64;
+
+        // Warnings a user must see (the first few skipped waypoints by
+        // name; report.json and plan.csv list them all).
+        let unsafe_skips: Vec<usize> = skipped
+            .iter()
+            .copied()
+            .filter(|&g| self.skip[g] != Some(Skip::Isolated))
+            .collect();
+        for &g in unsafe_skips.iter().take(20) {
+            let l = self.layer_of[g];
+            let why = match self.skip[g] {
+                Some(Skip::Unreachable) => "outside the machine's axis ranges in every orientation",
+                _ => "no orientation the machine can reach keeps the safety margin",
+            };
+            self.warnings.push(format!(
+                "waypoint {g} (layer {l}, #{} in it) skipped: {why}",
+                g - self.layer_start[l]
+            ));
+        }
+        if unsafe_skips.len() > 20 {
+            self.warnings.push(format!(
+                "{} more waypoints skipped (listed in report.json and plan.csv)",
+                unsafe_skips.len() - 20
+            ));
+        }
+        if out.isolated_waypoints > 0 {
+            self.warnings.push(format!(
+                "{} isolated waypoint(s) not visited: no bead is printed to or from them",
+                out.isolated_waypoints
+            ));
+        }
+        let below = wps
+            .iter()
+            .filter(|w| w.skipped.is_none() && w.axes.xyz[2] < 0.0)
+            .count();
+        if below > 0 {
+            self.warnings.push(format!(
+                "{below} waypoint(s) put machine Z below 0: check --place and the machine's Z origin"
+            ));
+        }
+        if out.colliding_edges > 0 {
+            self.warnings.push(format!(
+                "{} move(s) of the program could not be proven to keep the {:.3} mm margin",
+                out.colliding_edges, prover.margin
+            ));
+        }
+        Ok((out, wps))
+    }
+
+    /// Stage 7b: the input measured by the same rules (direct IK, C
+    /// unwound, orientations unchanged). Its moves — C swings of hundreds of
+    /// degrees between neighbours — are only sampled ([`INPUT_STEP`] mm of
+    /// head motion apart, at most 16 samples), so its colliding-edge count
+    /// is a lower bound.
+    fn input_metrics(&self, prover: &Prover) -> Result<(Metrics, Vec<Axes>, Vec<bool>), PlanError> {
+        let m = self.machine;
+        let axes = input_axes(m, &self.pos, &self.n0, &self.runs);
+        let items: Vec<(Axes, u32)> = axes
+            .iter()
+            .enumerate()
+            .map(|(g, a)| (*a, cutoff(g)))
+            .collect();
+        let hit = prover.poses_at(&items, prover.margin)?;
+        let mut specs = Vec::new();
+        for r in &self.runs {
+            for g in r.start + 1..r.end {
+                specs.push(MoveSpec {
+                    from: axes[g - 1],
+                    to: axes[g],
+                    cutoff: cutoff(g - 1),
+                });
+            }
+        }
+        let edge_hits = prover.sampled_moves(&specs, INPUT_STEP, 16)?;
+        let mut out = Metrics {
+            waypoints: self.pos.len(),
+            residual_collisions: hit.iter().filter(|&&h| h).count(),
+            colliding_edges: edge_hits.iter().filter(|&&h| h).count(),
+            singular_waypoints: self.was_singular.iter().filter(|&&s| s).count(),
+            ..Metrics::default()
+        };
+        let mut stats = SegmentStats::default();
+        for r in &self.runs {
+            let tool = m.tool_for(self.support[self.layer_of[r.start]]);
+            let cm = CostModel::new(m, tool.feed, tool.tip_speed, self.opts.dwell_weight);
+            for g in r.start + 1..r.end {
+                stats.add(
+                    &cm,
+                    dist(self.pos[g - 1], self.pos[g]),
+                    &axes[g - 1],
+                    &axes[g],
+                );
+            }
+        }
+        stats.finish(&mut out);
+        out.axis_limit_violations = axes
+            .iter()
+            .filter(|a| metrics::outside_limits(m, a))
+            .count();
+        Ok((out, axes, hit))
+    }
+}
+
+/// Every whole turn of C that puts `c` inside `[lo, hi]` (degrees).
+fn windings(c: f64, [lo, hi]: [f64; 2]) -> Vec<f64> {
+    let turn = std::f64::consts::TAU;
+    let (lo, hi) = (lo.to_radians() - 1e-9, hi.to_radians() + 1e-9);
+    let k0 = ((lo - c) / turn).ceil() as i64;
+    let k1 = ((hi - c) / turn).floor() as i64;
+    (k0..=k1)
+        .map(|k| crate::kinematics::round_angle(c + k as f64 * turn))
+        .collect()
+}
+
+/// Direct IK of the input, as written: per waypoint the solution closest
+/// to the previous one (the first: the smaller |C|), C unwound along each
+/// run. This is how `check` poses the head too.
+pub fn input_axes(
+    m: &Machine,
     pos: &[[f64; 3]],
     n: &[[f64; 3]],
-    sections: &[std::ops::Range<usize>],
+    runs: &[Range<usize>],
 ) -> Vec<Axes> {
-    let rot = ctx.machine.rotary;
+    let rot = m.rotary;
     let mut out = vec![Axes::default(); pos.len()];
-    for r in sections {
+    for r in runs {
         let mut prev: Option<(f64, f64)> = None;
         for i in r.clone() {
             let s = ik_angles(rot, n[i]);
@@ -594,60 +1231,36 @@ fn direct_ik(
                     (best.0, pc + wrap(best.1 - pc))
                 }
             };
-            prev = Some(pick);
-            out[i] = ctx.axes(pos[i], pick);
+            out[i] = m.axes_at(pos[i], pick);
+            prev = Some((out[i].tilt, out[i].c));
         }
     }
     out
 }
 
-fn segment_stats(
-    m: &Machine,
-    w: &[PlannedWaypoint],
-    sections: &[std::ops::Range<usize>],
-) -> SegmentStats {
-    let mut s = SegmentStats::default();
-    for r in sections {
-        for i in r.start + 1..r.end {
-            if w[i].break_before {
-                continue;
+/// The continuous runs of a toolpath: its layers, split where consecutive
+/// waypoints are more than `jump` mm apart.
+pub fn runs(toolpath: &Toolpath, jump: f64) -> Vec<Range<usize>> {
+    let mut out = Vec::new();
+    let mut g = 0;
+    for layer in &toolpath.layers {
+        let mut start = g;
+        for (k, w) in layer.waypoints.iter().enumerate() {
+            if k > 0 {
+                let q = layer.waypoints[k - 1].pos;
+                let d = ((w.pos[0] - q[0]) as f64)
+                    .hypot((w.pos[1] - q[1]) as f64)
+                    .hypot((w.pos[2] - q[2]) as f64);
+                if d > jump {
+                    out.push(start..g);
+                    start = g;
+                }
             }
-            let (a, b) = (&w[i - 1], &w[i]);
-            let len = (b.p[0] - a.p[0])
-                .hypot(b.p[1] - a.p[1])
-                .hypot(b.p[2] - a.p[2]);
-            s.add(m, len, &a.axes, &b.axes);
+            g += 1;
         }
-    }
-    s
-}
-
-/// Layer height at each waypoint (Eq. 1's T): the distance to the nearest
-/// waypoint of the previous layer; `default` on the first layer.
-fn extrusion_heights(pos: &[[f64; 3]], layer_of: &[usize], default: f64) -> Vec<f64> {
-    use rstar::RTree;
-    let mut out = vec![default; pos.len()];
-    let mut start = 0;
-    let mut prev: Option<RTree<[f64; 3]>> = None;
-    while start < pos.len() {
-        let l = layer_of[start];
-        let end = (start..pos.len())
-            .find(|&i| layer_of[i] != l)
-            .unwrap_or(pos.len());
-        if let Some(tree) = &prev {
-            out[start..end]
-                .par_iter_mut()
-                .enumerate()
-                .for_each(|(k, h)| {
-                    if let Some(q) = tree.nearest_neighbor(pos[start + k]) {
-                        let p = pos[start + k];
-                        let d = (p[0] - q[0]).hypot(p[1] - q[1]).hypot(p[2] - q[2]);
-                        *h = d.clamp(0.05 * default, 4.0 * default);
-                    }
-                });
+        if start < g {
+            out.push(start..g);
         }
-        prev = Some(RTree::bulk_load(pos[start..end].to_vec()));
-        start = end;
     }
     out
 }

@@ -1,54 +1,515 @@
-//! Collision queries for the motion between two machine configurations: the
-//! axes move linearly (X, Y, Z, tilt, C all together), so the head sweeps a
-//! curve in the part frame. Intermediate configurations are sampled so that
-//! no point of the head moves more than `step` mm between two checks,
-//! estimated as the tip's chord in the part frame, plus the head's reach
-//! times the rotation, plus the second-order bow of the tip's path (the
-//! distance from the rotation centre times the rotation squared).
+//! What the machine does between two G-code lines, and proofs that it is
+//! safe.
+//!
+//! In the joint-space dialect the controller moves X, Y, Z, tilt and C
+//! linearly and together from one line to the next, so the nozzle tip bows
+//! away from the straight bead and every point of the head sweeps a curve
+//! in the part frame. This file bounds both:
+//!
+//! - [`displacement_bound`]: no point of the head moves farther than this
+//!   over the whole move (and no farther than `bound · Δt` over any
+//!   fraction `Δt` of it);
+//! - [`tip_deviation_bound`]: the tip never leaves the part-frame chord by
+//!   more than this; [`tip_subdivision`] inserts points until every piece
+//!   keeps it within the machine's `tip_tolerance`.
+//!
+//! Both come from one derivation. Write the tip as `tip(t) = Mᵀ(t) X(t)`
+//! (configuration III: `M = R_y(B) R_z(C)`; the offsets of configurations
+//! I and II add lever arms `d + h + r`), `p(t)` the chord between the two
+//! tips and `g = M (tip − p) = X − M p`. `g` vanishes at both ends and
+//! `g'' = −M'' p − 2 M' Δp`, so with `ω = |ΔB| + |ΔC|` (radians per unit
+//! move) and `P` the largest `|p|`: `|g''| ≤ G = ω² P + 2 ω |Δp|`, hence
+//! `|tip − p| = |g| ≤ G / 8` and `|tip' − Δp| ≤ G / 2 + ω G / 8`. A head
+//! point `tip + R h` with `|h| ≤ reach` adds `ω · reach`.
+//!
+//! [`Prover`] turns boolean queries into proofs about whole moves: if the
+//! head is at least `m + μ_a` clear at parameter `a` and `m + μ_b` at `b`,
+//! and no head point moves farther than `L` between them, then every pose
+//! in between keeps the margin `m` when `μ_a + μ_b ≥ L` (any point of the
+//! swept path is within `μ_a` of where it was at `a` or within `μ_b` of
+//! where it is at `b`; the same holds for material points seen from the
+//! head, so containment cannot appear in between either). Samples are
+//! queried with a margin grown by half their spacing; where one fails, its
+//! intervals are halved, down to `min_step`. A move is declared colliding
+//! only when it cannot be proven at that resolution.
 
-use crate::kinematics::{head_pose, tip_position, Axes, Machine};
+use crate::collide::{Backend, CollideError};
+use crate::kinematics::{Axes, Machine};
 use crate::scene::Query;
+use rayon::prelude::*;
+use std::collections::HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
 
-/// Intermediate queries (endpoints excluded) for the move `a → b` with the
-/// material of `cutoff`; `reach` is the head's largest distance from its
-/// tip; at most `max_samples` of them.
-#[allow(clippy::too_many_arguments)]
-pub fn between(
-    m: &Machine,
-    a: &Axes,
-    b: &Axes,
-    cutoff: u32,
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2])
+}
+
+fn norm(a: [f64; 3]) -> f64 {
+    a[0].hypot(a[1]).hypot(a[2])
+}
+
+/// `G = ω² P + 2 ω |Δp|` of the move `a → b` (see the module comment).
+fn bow(m: &Machine, a: &Axes, b: &Axes) -> (f64, f64, f64) {
+    let (pa, pb) = (m.tip(a), m.tip(b));
+    let w = a.rotation_to(b);
+    let lever = norm(pa).max(norm(pb)) + m.d.abs() + m.h.abs() + m.r.abs();
+    let dp = dist(pa, pb);
+    (w * w * lever + 2.0 * w * dp, w, dp)
+}
+
+/// Largest distance any head point within `reach` of the tip travels over
+/// the joint-linear move `a → b` (mm); a fraction `Δt` of the move moves
+/// no point farther than `Δt` times this.
+pub fn displacement_bound(m: &Machine, a: &Axes, b: &Axes, reach: f64) -> f64 {
+    let (g, w, dp) = bow(m, a, b);
+    let lever = m.d.abs() + m.h.abs() + m.r.abs();
+    dp + 0.5 * g + w * g / 8.0 + w * (reach + lever)
+}
+
+/// Largest distance of the tip from the part-frame chord between the two
+/// ends of the joint-linear move `a → b` (mm).
+pub fn tip_deviation_bound(m: &Machine, a: &Axes, b: &Axes) -> f64 {
+    bow(m, a, b).0 / 8.0
+}
+
+/// The axes after `a` (excluded) up to `b` (included) that split the
+/// extruding move `a → b` into pieces whose tips stay within `tol` of the
+/// straight bead: intermediate tips on the part-frame chord, rotary axes
+/// interpolated linearly, every value rounded as written. Just `[b]` when
+/// the move needs no split.
+pub fn tip_subdivision(m: &Machine, a: &Axes, b: &Axes, tol: f64) -> Vec<Axes> {
+    let g = bow(m, a, b).0;
+    let mut n = ((g / (8.0 * tol)).sqrt().ceil() as usize).max(1);
+    let (pa, pb) = (m.tip(a), m.tip(b));
+    loop {
+        let pts: Vec<Axes> = (1..=n)
+            .map(|k| {
+                if k == n {
+                    return *b;
+                }
+                let s = k as f64 / n as f64;
+                let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
+                m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
+            })
+            .collect();
+        // Rounding moves the pieces' ends a little: re-check each piece.
+        let ok = std::iter::once(a)
+            .chain(&pts)
+            .zip(&pts)
+            .all(|(x, y)| tip_deviation_bound(m, x, y) <= tol);
+        if ok || n > 4096 {
+            return pts;
+        }
+        n += (n / 4).max(1);
+    }
+}
+
+/// One joint-linear move to prove: from `from` to `to` with the material
+/// of stamps below `cutoff` present.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MoveSpec {
+    /// Start axes.
+    pub from: Axes,
+    /// End axes.
+    pub to: Axes,
+    /// Material with `stamp < cutoff` exists during the move.
+    pub cutoff: u32,
+}
+
+type Key = [i64; 11];
+
+/// A move's identity on the program's grid (micrometres, millidegrees),
+/// with C taken modulo a turn at the start: moves that differ only by whole
+/// turns of C are the same motion.
+fn key(mv: &MoveSpec) -> Key {
+    let um = |x: f64| (x * 1000.0).round() as i64;
+    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i64;
+    let (a, b) = (&mv.from, &mv.to);
+    let (ca, cb) = (md(a.c), md(b.c));
+    [
+        um(a.xyz[0]),
+        um(a.xyz[1]),
+        um(a.xyz[2]),
+        md(a.tilt),
+        ca.rem_euclid(360_000),
+        um(b.xyz[0]),
+        um(b.xyz[1]),
+        um(b.xyz[2]),
+        md(b.tilt),
+        cb - ca,
+        mv.cutoff as i64,
+    ]
+}
+
+/// Proves poses and joint-linear moves free at the safety margin, with
+/// one backend, in batches. Verdicts of moves already proven are kept
+/// (keyed by the move's exact values), so re-checking a written program
+/// costs only its new moves.
+pub struct Prover<'a> {
+    machine: &'a Machine,
+    backend: &'a dyn Backend,
     reach: f64,
-    step: f64,
-    max_samples: usize,
-    out: &mut Vec<Query>,
-) {
-    let d = [
-        b.xyz[0] - a.xyz[0],
-        b.xyz[1] - a.xyz[1],
-        b.xyz[2] - a.xyz[2],
-    ];
-    let (cfg, rot_pair, off) = (m.configuration, m.rotary, m.offsets());
-    let pa = tip_position(cfg, rot_pair, off, a.xyz, a.tilt, a.c);
-    let pb = tip_position(cfg, rot_pair, off, b.xyz, b.tilt, b.c);
-    // The linear axes compensate the rotation, so the tip follows the
-    // part-frame chord up to a second-order bow; head points add the reach
-    // times the rotation.
-    let chord = (pb[0] - pa[0]).hypot(pb[1] - pa[1]).hypot(pb[2] - pa[2]);
-    let rot = (b.tilt - a.tilt).abs() + (b.c - a.c).abs();
-    let radius = a.xyz.iter().map(|x| x * x).sum::<f64>().sqrt();
-    let travel = chord + reach * rot + radius * rot * rot;
-    let n = ((travel / step).ceil().max(1.0) as usize).min(max_samples.saturating_add(1));
-    for k in 1..n {
-        let t = k as f64 / n as f64;
-        let x = std::array::from_fn(|i| a.xyz[i] + t * d[i]);
-        let tilt = a.tilt + t * (b.tilt - a.tilt);
-        let c = a.c + t * (b.c - a.c);
-        let p = tip_position(m.configuration, m.rotary, m.offsets(), x, tilt, c);
-        out.push(Query {
-            pose: head_pose(m.rotary, p, tilt, c),
+    /// The safety margin every pose and move must keep (mm).
+    pub margin: f64,
+    /// Initial spacing of the samples of a move: the largest distance any
+    /// head point moves between two of them (mm); long moves start with 64
+    /// samples.
+    pub step: f64,
+    /// Finest spacing before a move is declared colliding (mm). Poses are
+    /// checked with `margin + min_step` so that the moves out of them can
+    /// always be proven.
+    pub min_step: f64,
+    cache: Mutex<HashMap<Key, bool>>,
+    queries: AtomicU64,
+}
+
+/// Per-sample state of a move being proven: parameter, largest margin it
+/// is known free at, smallest margin it is known to collide at.
+#[derive(Clone, Copy)]
+struct Sample {
+    t: f64,
+    free: f64,
+    hit: f64,
+}
+
+impl<'a> Prover<'a> {
+    /// A prover for `machine` over `backend`; `reach` is the head's largest
+    /// distance from its tip (mm).
+    pub fn new(
+        machine: &'a Machine,
+        backend: &'a dyn Backend,
+        reach: f64,
+        margin: f64,
+        step: f64,
+    ) -> Self {
+        Prover {
+            machine,
+            backend,
+            reach,
+            margin,
+            step: step.max(1e-3),
+            min_step: 0.005,
+            cache: Mutex::new(HashMap::new()),
+            queries: AtomicU64::new(0),
+        }
+    }
+
+    /// Collision queries answered so far.
+    pub fn queries(&self) -> u64 {
+        self.queries.load(Ordering::Relaxed)
+    }
+
+    /// The margin poses are checked with: the safety margin plus the
+    /// finest step, so every accepted pose can start a provable move.
+    pub fn pose_margin(&self) -> f64 {
+        self.margin + self.min_step
+    }
+
+    fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
+        self.queries.fetch_add(q.len() as u64, Ordering::Relaxed);
+        self.backend.evaluate(q)
+    }
+
+    fn query(&self, a: &Axes, cutoff: u32, margin: f64) -> Query {
+        Query {
+            pose: self.machine.pose(a),
             cutoff,
-            margin: 0.0,
-        });
+            margin: margin as f32,
+        }
+    }
+
+    /// Do the poses `(axes, cutoff)` come within the pose margin of
+    /// existing material? One verdict each.
+    pub fn poses(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
+        let mu = self.pose_margin();
+        let q: Vec<Query> = items
+            .par_iter()
+            .map(|(a, c)| self.query(a, *c, mu))
+            .collect();
+        self.evaluate(&q)
+    }
+
+    /// Do the poses `(axes, cutoff)` come within `margin` of existing
+    /// material? (The plain re-check of a written program.)
+    pub fn poses_at(&self, items: &[(Axes, u32)], margin: f64) -> Result<Vec<bool>, CollideError> {
+        let q: Vec<Query> = items
+            .par_iter()
+            .map(|(a, c)| self.query(a, *c, margin))
+            .collect();
+        self.evaluate(&q)
+    }
+
+    /// A lower bound for moves too wild to prove (the input's own): does
+    /// any of at most `max_samples` poses along each move, about `step` mm
+    /// of head motion apart, come within the margin?
+    pub fn sampled_moves(
+        &self,
+        moves: &[MoveSpec],
+        step: f64,
+        max_samples: usize,
+    ) -> Result<Vec<bool>, CollideError> {
+        let per: Vec<Vec<Query>> = moves
+            .par_iter()
+            .map(|mv| {
+                let d = displacement_bound(self.machine, &mv.from, &mv.to, self.reach);
+                let n = ((d / step).ceil() as usize).clamp(1, max_samples + 1);
+                (1..n)
+                    .map(|k| {
+                        let a = mv.from.lerp(&mv.to, k as f64 / n as f64);
+                        self.query(&a, mv.cutoff, self.margin)
+                    })
+                    .collect()
+            })
+            .collect();
+        let flat: Vec<Query> = per.iter().flatten().copied().collect();
+        let hits = self.evaluate(&flat)?;
+        let mut out = Vec::with_capacity(moves.len());
+        let mut k = 0;
+        for q in &per {
+            out.push(hits[k..k + q.len()].iter().any(|&h| h));
+            k += q.len();
+        }
+        Ok(out)
+    }
+
+    /// Does each move come within the margin of existing material at any
+    /// point (or can it not be proven free)? One verdict each.
+    pub fn moves(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
+        let mut out = vec![None; moves.len()];
+        {
+            let cache = self.cache.lock().expect("prover cache");
+            for (o, mv) in out.iter_mut().zip(moves) {
+                *o = cache.get(&key(mv)).copied();
+            }
+        }
+        let todo: Vec<usize> = (0..moves.len()).filter(|&i| out[i].is_none()).collect();
+        let found = self.prove(&todo.iter().map(|&i| moves[i]).collect::<Vec<_>>())?;
+        let mut cache = self.cache.lock().expect("prover cache");
+        for (&i, v) in todo.iter().zip(found) {
+            cache.insert(key(&moves[i]), v);
+            out[i] = Some(v);
+        }
+        Ok(out.into_iter().map(|v| v.unwrap_or(true)).collect())
+    }
+
+    /// The adaptive proof (module comment) for moves not in the cache.
+    fn prove(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
+        let m = self.margin;
+        let bounds: Vec<f64> = moves
+            .par_iter()
+            .map(|mv| displacement_bound(self.machine, &mv.from, &mv.to, self.reach))
+            .collect();
+        // Initial samples: intervals no longer than `step`.
+        let mut samples: Vec<Vec<Sample>> = bounds
+            .iter()
+            .map(|&d| {
+                // Long moves (travels) start coarser: at most 64 samples,
+                // each checked with a margin grown by half their spacing,
+                // refined only where material is near.
+                let n = ((d / self.step).ceil() as usize).clamp(1, 64);
+                (0..=n)
+                    .map(|k| Sample {
+                        t: k as f64 / n as f64,
+                        free: f64::NEG_INFINITY,
+                        hit: f64::INFINITY,
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut verdict: Vec<Option<bool>> = vec![None; moves.len()];
+        loop {
+            // Per undecided move: the samples to query and at what margin,
+            // splitting intervals whose ends failed at their margin.
+            let requests: Vec<Vec<(usize, f64)>> = samples
+                .par_iter_mut()
+                .zip(verdict.par_iter_mut())
+                .zip(bounds.par_iter())
+                .map(|((s, v), &d)| {
+                    if v.is_some() {
+                        return Vec::new();
+                    }
+                    let (req, decided) = plan_requests(s, d, m, self.min_step);
+                    *v = decided;
+                    req
+                })
+                .collect();
+            let flat: Vec<(usize, usize, f64)> = requests
+                .iter()
+                .enumerate()
+                .flat_map(|(i, r)| r.iter().map(move |&(k, mu)| (i, k, mu)))
+                .collect();
+            if flat.is_empty() {
+                break;
+            }
+            let queries: Vec<Query> = flat
+                .par_iter()
+                .map(|&(i, k, mu)| {
+                    let mv = &moves[i];
+                    let a = mv.from.lerp(&mv.to, samples[i][k].t);
+                    self.query(&a, mv.cutoff, mu)
+                })
+                .collect();
+            let hits = self.evaluate(&queries)?;
+            for (&(i, k, mu), hit) in flat.iter().zip(hits) {
+                let s = &mut samples[i][k];
+                if hit {
+                    s.hit = s.hit.min(mu);
+                } else {
+                    s.free = s.free.max(mu);
+                }
+            }
+        }
+        Ok(verdict.into_iter().map(|v| v.unwrap_or(true)).collect())
+    }
+}
+
+/// One round of the proof of one move (displacement bound `d`, margin
+/// `m`): split every interval that cannot be proven at its resolution (an
+/// end already failed at the margin its length needs), then list the
+/// `(sample, margin)` queries the unproven intervals still need. Returns
+/// the decision instead once the move is proven free (`Some(false)`) or
+/// cannot be (`Some(true)`: an interval shorter than `2 · min_step` with a
+/// failing end).
+fn plan_requests(
+    s: &mut Vec<Sample>,
+    d: f64,
+    m: f64,
+    min_step: f64,
+) -> (Vec<(usize, f64)>, Option<bool>) {
+    // (The tolerance absorbs the rounding of `m + len / 2 − m`.)
+    let proven =
+        |a: &Sample, b: &Sample| (a.free - m) + (b.free - m) >= d * (b.t - a.t) * (1.0 - 1e-9);
+    let want = |a: &Sample, b: &Sample| m + 0.5 * d * (b.t - a.t);
+    // Splits.
+    let mut k = 0;
+    while k + 1 < s.len() {
+        let (a, b) = (s[k], s[k + 1]);
+        let w = want(&a, &b);
+        if !proven(&a, &b) && (a.hit <= w || b.hit <= w) {
+            if w - m < min_step {
+                return (Vec::new(), Some(true));
+            }
+            s.insert(
+                k + 1,
+                Sample {
+                    t: 0.5 * (a.t + b.t),
+                    free: f64::NEG_INFINITY,
+                    hit: f64::INFINITY,
+                },
+            );
+            k += 2;
+        } else {
+            k += 1;
+        }
+    }
+    // Queries for the ends of every interval not yet proven.
+    let mut need: Vec<(usize, f64)> = Vec::new();
+    for k in 0..s.len() - 1 {
+        let (a, b) = (s[k], s[k + 1]);
+        if proven(&a, &b) {
+            continue;
+        }
+        let w = want(&a, &b);
+        for idx in [k, k + 1] {
+            if s[idx].free < w && s[idx].hit > w {
+                match need.last_mut() {
+                    Some(last) if last.0 == idx => last.1 = last.1.max(w),
+                    _ => need.push((idx, w)),
+                }
+            }
+        }
+    }
+    if need.is_empty() {
+        // Nothing left to ask: either all proven, or only splits remain.
+        let all = (0..s.len() - 1).all(|k| proven(&s[k], &s[k + 1]));
+        return (need, all.then_some(false));
+    }
+    (need, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::Machine;
+
+    fn axes(m: &Machine, p: [f64; 3], tilt_deg: f64, c_deg: f64) -> Axes {
+        m.axes_at(p, (tilt_deg.to_radians(), c_deg.to_radians()))
+    }
+
+    /// The bounds hold for densely sampled joint-linear moves.
+    #[test]
+    fn bounds_cover_sampled_motion() {
+        let m = Machine::default();
+        let reach = 36.0;
+        let head_pts = [[0.0, 0.0, 0.0], [20.0, 0.0, 20.0], [-14.0, 14.0, 30.0]];
+        let cases = [
+            (
+                axes(&m, [10.0, -5.0, 45.0], 0.0, 0.0),
+                axes(&m, [10.5, -5.2, 45.1], 2.0, 3.0),
+            ),
+            (
+                axes(&m, [-30.0, 20.0, 60.0], -40.0, 170.0),
+                axes(&m, [-29.0, 21.0, 60.5], 35.0, -100.0),
+            ),
+            (
+                axes(&m, [80.0, 0.0, 41.0], 10.0, 0.0),
+                axes(&m, [80.0, 0.7, 41.0], 12.0, 45.0),
+            ),
+        ];
+        for (a, b) in cases {
+            let d = displacement_bound(&m, &a, &b, reach);
+            let dev = tip_deviation_bound(&m, &a, &b);
+            let (pa, pb) = (m.tip(&a), m.tip(&b));
+            let n = 2000;
+            let mut worst_dev: f64 = 0.0;
+            for h in head_pts {
+                let pt = |t: f64| m.pose(&a.lerp(&b, t)).to_part(h.map(|x| x as f32));
+                for k in 0..n {
+                    let (t0, t1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
+                    let (x0, x1) = (pt(t0), pt(t1));
+                    let step = dist(x0.map(|v| v as f64), x1.map(|v| v as f64));
+                    assert!(
+                        step <= d * (t1 - t0) * 1.001 + 1e-4,
+                        "{step} > {}",
+                        d * (t1 - t0)
+                    );
+                }
+            }
+            for k in 0..=n {
+                let t = k as f64 / n as f64;
+                let tip = m.tip(&a.lerp(&b, t));
+                let p: [f64; 3] = std::array::from_fn(|i| pa[i] + t * (pb[i] - pa[i]));
+                worst_dev = worst_dev.max(dist(tip, p));
+            }
+            assert!(
+                worst_dev <= dev * 1.0001 + 1e-9,
+                "tip deviation {worst_dev} > bound {dev}"
+            );
+        }
+    }
+
+    #[test]
+    fn subdivision_keeps_the_tip_on_the_bead() {
+        let m = Machine::default();
+        let a = axes(&m, [30.0, 10.0, 50.0], -20.0, 10.0);
+        let b = axes(&m, [30.6, 10.2, 50.1], -20.0, 70.0);
+        assert!(tip_deviation_bound(&m, &a, &b) > 0.05);
+        let pts = tip_subdivision(&m, &a, &b, 0.05);
+        assert!(pts.len() > 1);
+        assert_eq!(*pts.last().unwrap(), b);
+        let (pa, pb) = (m.tip(&a), m.tip(&b));
+        let mut prev = a;
+        for q in &pts {
+            assert!(tip_deviation_bound(&m, &prev, q) <= 0.05);
+            // Every piece's tip lies on the original bead.
+            let t = m.tip(q);
+            let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
+            let u = ((t[0] - pa[0]) * seg[0] + (t[1] - pa[1]) * seg[1] + (t[2] - pa[2]) * seg[2])
+                / (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2]);
+            let on: [f64; 3] = std::array::from_fn(|i| pa[i] + u * seg[i]);
+            assert!(dist(t, on) < 0.002);
+            prev = *q;
+        }
     }
 }

@@ -14,15 +14,25 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
+/// What the page says about the run besides the plan.
+pub struct ReportContext<'a> {
+    /// The toolpath planned.
+    pub source: &'a str,
+    /// The command line.
+    pub command: &'a str,
+    /// Names of the layers whose nozzle directions were reversed on loading.
+    pub flipped_layers: &'a [String],
+}
+
 /// The page.
 pub fn report_html(
-    source: &str,
-    command: &str,
+    ctx: &ReportContext,
     m: &Machine,
     plan: &Plan,
     figures: &[Figure],
     seconds: f64,
 ) -> String {
+    let (source, command) = (ctx.source, ctx.command);
     let mut h = String::new();
     let _ = write!(
         h,
@@ -38,6 +48,27 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
         "<p>{} waypoints planned in {seconds:.2} s.</p>",
         plan.plan.waypoints
     );
+    if !ctx.flipped_layers.is_empty() {
+        let _ = writeln!(
+            h,
+            "<p id=\"flipped\">Nozzle directions reversed on loading (more than 20 % pointed down, as the data set's original software reads them): layers {}.</p>",
+            esc(&ctx.flipped_layers.join(", "))
+        );
+    }
+    if !plan.warnings.is_empty() {
+        let _ = writeln!(h, "<h2>Warnings</h2><ul id=\"warnings\">");
+        for w in plan.warnings.iter().take(200) {
+            let _ = writeln!(h, "<li>{}</li>", esc(w));
+        }
+        if plan.warnings.len() > 200 {
+            let _ = writeln!(
+                h,
+                "<li>… {} more in report.json</li>",
+                plan.warnings.len() - 200
+            );
+        }
+        let _ = writeln!(h, "</ul>");
+    }
     let _ = writeln!(
         h,
         "<h2>Summary</h2><table id=\"summary\"><tr><th></th><th>input</th><th>plan</th></tr>"
@@ -46,7 +77,7 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
         let _ = writeln!(h, "<tr><td>{k}</td><td>{a}</td><td>{b}</td></tr>");
     }
     let _ = writeln!(h, "</table>");
-    let _ = writeln!(h, "<h2>Per layer</h2><table id=\"layers\"><tr><th>layer</th><th>waypoints</th><th>colliding (input)</th><th>residual (plan)</th></tr>");
+    let _ = writeln!(h, "<h2>Per layer</h2><table id=\"layers\"><tr><th>layer</th><th>waypoints</th><th>colliding (input)</th><th>skipped (plan)</th></tr>");
     for (k, (n, ci, cp)) in layer_table(plan).iter().enumerate() {
         let _ = writeln!(
             h,

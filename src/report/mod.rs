@@ -7,17 +7,24 @@ pub mod plots;
 pub mod scene_glb;
 
 use crate::kinematics::Machine;
+use crate::plan::cost::CostModel;
 use crate::plan::metrics::{tip_speed, Metrics};
 use crate::plan::Plan;
 
 /// Per-segment tip speeds (mm/s) of the input and of the plan, over the
-/// segments the metrics count (same section, not a break, non-zero length).
+/// segments the plan prints (same section, not a break, neither end
+/// skipped, non-zero length), each with its extruder's feed.
 pub fn tip_speeds(m: &Machine, plan: &Plan) -> (Vec<f64>, Vec<f64>) {
     let w = &plan.waypoints;
     let mut input = Vec::new();
     let mut planned = Vec::new();
     for i in 1..w.len() {
-        if w[i].section_start || w[i].break_before || w[i].layer != w[i - 1].layer {
+        if w[i].section_start
+            || w[i].break_before
+            || w[i].layer != w[i - 1].layer
+            || w[i].skipped.is_some()
+            || w[i - 1].skipped.is_some()
+        {
             continue;
         }
         let len = (w[i].p[0] - w[i - 1].p[0])
@@ -26,18 +33,20 @@ pub fn tip_speeds(m: &Machine, plan: &Plan) -> (Vec<f64>, Vec<f64>) {
         if len <= 0.0 {
             continue;
         }
+        let tool = m.tool_for(w[i].support);
+        let cm = CostModel::new(m, tool.feed, tool.tip_speed, 1.0);
         input.push(tip_speed(
-            m,
+            &cm,
             len,
             &plan.input_axes[i - 1],
             &plan.input_axes[i],
         ));
-        planned.push(tip_speed(m, len, &w[i - 1].axes, &w[i].axes));
+        planned.push(tip_speed(&cm, len, &w[i - 1].axes, &w[i].axes));
     }
     (input, planned)
 }
 
-/// Per layer: (waypoints, colliding in the input, residual in the plan).
+/// Per layer: (waypoints, colliding in the input, skipped in the plan).
 pub fn layer_table(plan: &Plan) -> Vec<(usize, usize, usize)> {
     let layers = plan
         .waypoints
@@ -50,7 +59,7 @@ pub fn layer_table(plan: &Plan) -> Vec<(usize, usize, usize)> {
         let r = &mut t[w.layer];
         r.0 += 1;
         r.1 += w.was_colliding as usize;
-        r.2 += w.residual as usize;
+        r.2 += w.skipped.is_some() as usize;
     }
     t
 }
@@ -65,7 +74,7 @@ pub fn summary_rows(i: &Metrics, p: &Metrics) -> Vec<(&'static str, String, Stri
             p.waypoints.to_string(),
         ),
         (
-            "residual collisions",
+            "colliding poses",
             i.residual_collisions.to_string(),
             p.residual_collisions.to_string(),
         ),
@@ -95,6 +104,26 @@ pub fn summary_rows(i: &Metrics, p: &Metrics) -> Vec<(&'static str, String, Stri
             p.singular_waypoints.to_string(),
         ),
         ("breaks", i.breaks.to_string(), p.breaks.to_string()),
+        (
+            "skipped waypoints",
+            i.skipped_waypoints.to_string(),
+            p.skipped_waypoints.to_string(),
+        ),
+        (
+            "tip deviation while extruding",
+            "—".into(),
+            format!("{:.3} mm", p.tip_deviation_max_mm),
+        ),
+        (
+            "largest C turn between extrusions",
+            "—".into(),
+            format!("{:.1}°", p.travel_c_max_deg),
+        ),
+        (
+            "segments at the layer-height clamp",
+            "—".into(),
+            format!("{:.2} %", p.height_clamped_pct),
+        ),
         (
             "axis-limit violations",
             i.axis_limit_violations.to_string(),

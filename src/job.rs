@@ -1,0 +1,177 @@
+//! A job: the toolpath (with the data set's input conventions applied), the
+//! head, the platform and the scene built from them. Every command and the
+//! tests load inputs through [`Job::load`], so they all see the same poses.
+//!
+//! Conventions applied on loading (README, "Input formats"):
+//! - `--y-up` rotation and `--place` translation ([`Placement`]);
+//! - optional `--tilt` of every nozzle direction about x (a stress test);
+//! - the per-layer flip: a layer in which more than 20 % of the nozzle
+//!   directions point down is reversed as a whole, as the data set's
+//!   original software does ([`Toolpath::flip_downward_layers`]), unless
+//!   [`JobSpec::keep_normals`] is set.
+
+use crate::default_job;
+use crate::geometry::{Aabb, Mesh};
+use crate::io::mesh::load_mesh;
+use crate::io::toolpath::load_toolpath;
+use crate::io::{InputError, Placement};
+use crate::scene::{HeadConfig, Scene, SceneConfig, SceneError};
+use crate::toolpath::Toolpath;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// What can go wrong loading a job.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// An input file is missing or malformed.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// The scene cannot be built from the inputs (e.g. an open head).
+    #[error("building the scene (head {head}): {source}")]
+    Scene {
+        /// The head's file, or `default`.
+        head: String,
+        /// Why.
+        source: SceneError,
+    },
+    /// A setting is out of range.
+    #[error("{0}")]
+    Setting(String),
+}
+
+/// Where a job's inputs come from and how to place them.
+#[derive(Clone, Debug, Default)]
+pub struct JobSpec {
+    /// Toolpath folder or waypoint file; `None`: the embedded default job.
+    pub toolpath: Option<PathBuf>,
+    /// Head mesh; `None`: the default job's head (or a 45° cone).
+    pub head: Option<PathBuf>,
+    /// Platform mesh; `None`: the default job's plate (or a plate under the part).
+    pub platform: Option<PathBuf>,
+    /// Y-up rotation and translation of the toolpath and its layers.
+    pub placement: Placement,
+    /// Contact within this distance of the tip, along the nozzle axis, is
+    /// ignored (mm).
+    pub clearance: f32,
+    /// Keep layers whose normals point down as stored (no per-layer flip).
+    pub keep_normals: bool,
+    /// Rotate every nozzle direction by this many degrees about x first.
+    pub tilt_deg: Option<f64>,
+}
+
+/// A loaded job.
+#[derive(Clone, Debug)]
+pub struct Job {
+    /// What the user named (for messages and reports).
+    pub source: String,
+    /// The toolpath, conventions applied.
+    pub toolpath: Toolpath,
+    /// The scene.
+    pub scene: Scene,
+    /// Layers whose nozzle directions were reversed by the flip convention.
+    pub flipped_layers: Vec<usize>,
+    /// Seconds spent loading and building.
+    pub seconds: f64,
+}
+
+impl Job {
+    /// Load the inputs of `spec`, apply the conventions and build the scene.
+    pub fn load(spec: &JobSpec) -> Result<Job, JobError> {
+        let t0 = Instant::now();
+        if !(spec.clearance >= 0.0 && spec.clearance.is_finite()) {
+            return Err(JobError::Setting(
+                "--clearance must be a finite number ≥ 0 (mm)".into(),
+            ));
+        }
+        let place = &spec.placement;
+        let (source, mut toolpath, default_head, default_platform) = match &spec.toolpath {
+            Some(p) => (
+                p.display().to_string(),
+                load_toolpath(p, place)?,
+                None,
+                None,
+            ),
+            None => {
+                let job = default_job::job();
+                let tp = Toolpath {
+                    layers: job
+                        .toolpath
+                        .layers
+                        .into_iter()
+                        .map(|mut l| {
+                            for w in &mut l.waypoints {
+                                w.pos = place.point(w.pos);
+                                w.dir = place.direction(w.dir);
+                            }
+                            l.surface = l.surface.map(|s| s.map_vertices(|v| place.point(v)));
+                            l
+                        })
+                        .collect(),
+                };
+                (
+                    "embedded default".to_string(),
+                    tp,
+                    Some(job.head),
+                    Some(job.platform),
+                )
+            }
+        };
+        if let Some(deg) = spec.tilt_deg {
+            toolpath.tilt_directions(deg);
+        }
+        let flipped_layers = if spec.keep_normals {
+            Vec::new()
+        } else {
+            toolpath.flip_downward_layers()
+        };
+        let head = match &spec.head {
+            Some(p) => load_mesh(p)?,
+            None => default_head.unwrap_or_else(|| default_job::cone_head(20.0, 20.0, 30.0, 64)),
+        };
+        let platform = match &spec.platform {
+            Some(p) => load_mesh(p)?,
+            None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
+        };
+        let cfg = SceneConfig {
+            head: HeadConfig {
+                tip_clearance: spec.clearance,
+                ..HeadConfig::default()
+            },
+            max_edge: None,
+        };
+        let scene =
+            Scene::build(&toolpath, &head, &platform, &cfg).map_err(|source| JobError::Scene {
+                head: spec
+                    .head
+                    .as_ref()
+                    .map_or("default".into(), |p| p.display().to_string()),
+                source,
+            })?;
+        Ok(Job {
+            source,
+            toolpath,
+            scene,
+            flipped_layers,
+            seconds: t0.elapsed().as_secs_f64(),
+        })
+    }
+
+    /// Names of the flipped layers.
+    pub fn flipped_names(&self) -> Vec<String> {
+        self.flipped_layers
+            .iter()
+            .map(|&k| self.toolpath.layers[k].name.clone())
+            .collect()
+    }
+}
+
+/// A flat plate whose top is at the toolpath's lowest point, 100 mm wider
+/// than the part on every side.
+pub fn plate_under(tp: &Toolpath) -> Mesh {
+    let pts: Vec<[f32; 3]> = tp.iter().map(|(_, w)| w.pos).collect();
+    let b = Aabb::from_points(&pts);
+    default_job::box_mesh(
+        [b.min[0] - 100.0, b.min[1] - 100.0, b.min[2] - 5.0],
+        [b.max[0] + 100.0, b.max[1] + 100.0, b.min[2]],
+    )
+}

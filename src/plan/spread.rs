@@ -1,0 +1,96 @@
+//! Spreading a rotation the extruder cannot follow over the neighbouring
+//! waypoints.
+//!
+//! Near the vertical a small turn of the nozzle needs a large turn of C:
+//! a ring printed with the nozzle tilted 8° outwards needs a full turn of C
+//! per lap, and on short beads the table cannot keep up, so the extruder
+//! dwells (tip speed below `v_min`). Letting C lag or lead its target a
+//! little spreads the turn: C may differ from the waypoint's own by `δ_i`,
+//! where turning C by `δ` at tilt `t` moves the nozzle by
+//! `2 asin(sin|t| sin(δ/2))` — so a tolerance of a few degrees gives C a
+//! wide tube near the vertical and a narrow one far from it. Within those
+//! tubes, [`rate_limited`] finds C values that turn no faster than each
+//! bead's time allows (`ω_C · L / v_min`), staying on the targets where
+//! that is already so; the tilt is then spread the same way within what
+//! the C spread left of the tolerance (an orientation moved by tilt and C
+//! together moves by at most the sum). The results are offered to the graph
+//! as extra candidates; the graph takes them where they are cheaper.
+
+/// The C tube half-width (radians) that keeps the nozzle within `tol` of
+/// its direction at tilt `tilt`: any C within `tol` of the vertical.
+pub fn c_tube(tilt: f64, tol: f64) -> f64 {
+    let s = tilt.sin().abs();
+    let h = (0.5 * tol).sin();
+    if s <= h {
+        std::f64::consts::PI
+    } else {
+        2.0 * (h / s).asin()
+    }
+}
+
+/// The angle between the nozzle directions of C and C + `dc` at `tilt`.
+pub fn c_deviation(tilt: f64, dc: f64) -> f64 {
+    2.0 * (tilt.sin().abs() * (0.5 * dc).sin().abs()).min(1.0).asin()
+}
+
+/// C values (unwound) within `tube[i]` of `target[i]` whose steps stay
+/// within `rate[i]` (`rate[0]` unused) wherever the tubes allow: a forward
+/// pass lagging behind fast turns, then a backward pass leading into them.
+/// Where the tubes do not allow it, the value stays on the tube's edge
+/// nearest the rate limit.
+pub fn rate_limited(target: &[f64], tube: &[f64], rate: &[f64]) -> Vec<f64> {
+    let n = target.len();
+    let mut out = target.to_vec();
+    let fit = |t: f64, w: f64, prev: f64, r: f64, own: f64| {
+        let lo = (t - w).max(prev - r);
+        let hi = (t + w).min(prev + r);
+        if lo <= hi {
+            own.clamp(lo, hi)
+        } else if prev - r > t + w {
+            t + w
+        } else {
+            t - w
+        }
+    };
+    for i in 1..n {
+        out[i] = fit(target[i], tube[i], out[i - 1], rate[i], target[i]);
+    }
+    for i in (0..n.saturating_sub(1)).rev() {
+        out[i] = fit(target[i], tube[i], out[i + 1], rate[i + 1], out[i]);
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_fast_ring_is_slowed_within_the_tube() {
+        // A ring needing 13° of C per bead where 12° is the most the table
+        // can turn: C lags, within the tube, and never turns too fast.
+        let n = 60;
+        let target: Vec<f64> = (0..n).map(|i| (13.0 * i as f64).to_radians()).collect();
+        let tilt = 8f64.to_radians();
+        let tube: Vec<f64> = vec![c_tube(tilt, 4.5f64.to_radians()); n];
+        let rate: Vec<f64> = vec![12f64.to_radians(); n];
+        let c = rate_limited(&target, &tube, &rate);
+        for i in 1..n {
+            assert!((c[i] - c[i - 1]).abs() <= rate[i] + 1e-12, "step {i}");
+            assert!((c[i] - target[i]).abs() <= tube[i] + 1e-12);
+            assert!(c_deviation(tilt, c[i] - target[i]) <= 4.5f64.to_radians() + 1e-9);
+        }
+        // Where the rate allows, the targets are kept.
+        let slow: Vec<f64> = (0..n).map(|i| (5.0 * i as f64).to_radians()).collect();
+        assert_eq!(rate_limited(&slow, &tube, &rate), slow);
+    }
+
+    #[test]
+    fn far_from_the_vertical_the_tube_is_narrow() {
+        let tol = 4.5f64.to_radians();
+        assert!(c_tube(60f64.to_radians(), tol) < 6f64.to_radians());
+        assert_eq!(c_tube(1f64.to_radians(), tol), std::f64::consts::PI);
+        let t = 30f64.to_radians();
+        assert!((c_deviation(t, c_tube(t, tol)) - tol).abs() < 1e-9);
+    }
+}
