@@ -23,19 +23,20 @@ pub struct IsoplanarArgs {
     /// Machine file (TOML) whose axis speeds bound the feed rate [default: the built-in machine].
     #[arg(long)]
     machine: Option<PathBuf>,
-    /// Bead width s, the ellipse's major axis (mm) [default: the machine's extrusion width].
+    /// Bead width (mm) [default: the machine's extrusion width].
     #[arg(long)]
     nozzle: Option<f64>,
-    /// Layer thickness h (mm) [default: the machine's default layer height].
+    /// Layer thickness (mm) [default: the machine's default layer height].
     #[arg(long)]
     height: Option<f64>,
-    /// Largest chord error δ_c (mm).
+    /// Largest distance between the straight path and the surface between
+    /// two waypoints (mm).
     #[arg(long, default_value_t = 0.05)]
     chord_error: f64,
     /// Longest forward step (mm).
     #[arg(long, default_value_t = 2.0)]
     max_step: f64,
-    /// Sampling of the feed angle θ over [0°, 180°] (degrees).
+    /// Step between the print directions tried, over [0°, 180°] (degrees).
     #[arg(long, default_value_t = 2.0)]
     theta_step: f64,
     /// Output folder: waypoint/0.txt, layer/0.obj, summary.json.

@@ -29,17 +29,22 @@ pub struct Cli {
 
 #[derive(Subcommand, Debug)]
 enum Command {
-    /// Check every waypoint's own head pose for collisions.
+    /// Check whether the head, posed as the machine poses it at each
+    /// waypoint (or as a written plan poses it), comes too close to the
+    /// platform or the part printed so far.
     Check(check::CheckArgs),
     /// Measure poses per second of several backends on the same queries.
     Bench(bench::BenchArgs),
-    /// Plan machine motion: collision-free, singularity-aware, within the tip-speed range.
+    /// Turn a toolpath into G-code the machine can run: every move clear of
+    /// the part, smooth through the vertical, within the extruder's speed range.
     Plan(plan::PlanArgs),
     /// List GPU adapters, their kind (hardware / software) and limits.
     Info,
-    /// Slice a closed mesh into planar layers along a direction and fill them (zig-zag, one-way, MZZ).
+    /// Slice a closed mesh into flat layers along a direction and fill them
+    /// with rows (zig-zag, one-way or nearest-row order).
     Slice(slice::SliceArgs),
-    /// Deposition-rate-optimal iso-planar paths on a curved layer surface.
+    /// Parallel print paths on one curved layer surface, in the direction
+    /// that deposits material fastest.
     Isoplanar(isoplanar::IsoplanarArgs),
 }
 

@@ -20,7 +20,8 @@ pub enum FillKind {
     Zigzag,
     /// Every row the same way.
     Oneway,
-    /// Modified zig-zag (paper 003): nearest continuation, best start.
+    /// Each row continues with the nearest unprinted row; the shortest of
+    /// all starts is kept (never longer than zig-zag).
     Mzz,
 }
 
