@@ -32,10 +32,11 @@ fn f3(x: f64) -> String {
     }
 }
 
-/// Feed in mm/min as the controller reads it.
+/// Feed in mm/min as the controller reads it (whole numbers where the
+/// machine file's mm/s are a whole number of mm/min to 0.05).
 fn feed(mm_s: f64) -> String {
     let f = mm_s * 60.0;
-    if (f - f.round()).abs() < 1e-6 {
+    if (f - f.round()).abs() < 0.05 {
         format!("{}", f.round() as i64)
     } else {
         format!("{f:.1}")

@@ -97,10 +97,10 @@ impl Default for SupportTool {
         SupportTool {
             tool: 2,
             temperature: 205,
-            feed: 2500.0 / 60.0,
+            feed: 41.667,
             extrusion: 0.9,
             offset: [0.0, 0.0],
-            tip_speed: [1.0, 2500.0 / 60.0],
+            tip_speed: [1.0, 41.667],
         }
     }
 }
@@ -133,12 +133,12 @@ impl Default for Travel {
     fn default() -> Self {
         Travel {
             retract: 6.0,
-            retract_speed: 4800.0 / 60.0,
+            retract_speed: 80.0,
             prime: 3.0,
             lift: 50.0,
             approach: 2.0,
-            speed: 5250.0 / 60.0,
-            z_speed: 4750.0 / 60.0,
+            speed: 87.5,
+            z_speed: 79.167,
             home_z: 230.0,
         }
     }
