@@ -142,10 +142,33 @@ fn key(mv: &MoveSpec) -> Key {
     ]
 }
 
+/// A pose's identity on the program's grid, with its cutoff.
+fn pose_key(a: &Axes, cutoff: u32) -> [i64; 6] {
+    let um = |x: f64| (x * 1000.0).round() as i64;
+    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i64;
+    [
+        um(a.xyz[0]),
+        um(a.xyz[1]),
+        um(a.xyz[2]),
+        md(a.tilt),
+        md(a.c).rem_euclid(360_000),
+        cutoff as i64,
+    ]
+}
+
+/// What is known of one pose: free at margins up to `free`, colliding at
+/// margins from `hit` on.
+#[derive(Clone, Copy)]
+struct Known {
+    free: f64,
+    hit: f64,
+}
+
 /// Proves poses and joint-linear moves free at the safety margin, with
-/// one backend, in batches. Verdicts of moves already proven are kept
-/// (keyed by the move's exact values), so re-checking a written program
-/// costs only its new moves.
+/// one backend, in batches. What it has proven is kept (moves keyed by
+/// their exact values, poses by theirs and the margins known free or
+/// colliding), so re-checking a written program costs only its new poses
+/// and moves.
 pub struct Prover<'a> {
     machine: &'a Machine,
     backend: &'a dyn Backend,
@@ -161,6 +184,7 @@ pub struct Prover<'a> {
     /// always be proven.
     pub min_step: f64,
     cache: Mutex<HashMap<Key, bool>>,
+    known: Mutex<HashMap<[i64; 6], Known>>,
     queries: AtomicU64,
 }
 
@@ -191,6 +215,7 @@ impl<'a> Prover<'a> {
             step: step.max(1e-3),
             min_step: 0.005,
             cache: Mutex::new(HashMap::new()),
+            known: Mutex::new(HashMap::new()),
             queries: AtomicU64::new(0),
         }
     }
@@ -222,22 +247,50 @@ impl<'a> Prover<'a> {
     /// Do the poses `(axes, cutoff)` come within the pose margin of
     /// existing material? One verdict each.
     pub fn poses(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
-        let mu = self.pose_margin();
-        let q: Vec<Query> = items
-            .par_iter()
-            .map(|(a, c)| self.query(a, *c, mu))
-            .collect();
-        self.evaluate(&q)
+        self.poses_at(items, self.pose_margin())
     }
 
     /// Do the poses `(axes, cutoff)` come within `margin` of existing
-    /// material? (The plain re-check of a written program.)
+    /// material? Poses already known free at a larger margin, or colliding
+    /// at a smaller one, are answered without a query.
     pub fn poses_at(&self, items: &[(Axes, u32)], margin: f64) -> Result<Vec<bool>, CollideError> {
-        let q: Vec<Query> = items
+        let keys: Vec<[i64; 6]> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
+        let mut out: Vec<Option<bool>> = {
+            let known = self.known.lock().expect("prover cache");
+            keys.iter()
+                .map(|k| {
+                    known.get(k).and_then(|s| {
+                        if s.free >= margin {
+                            Some(false)
+                        } else if s.hit <= margin {
+                            Some(true)
+                        } else {
+                            None
+                        }
+                    })
+                })
+                .collect()
+        };
+        let todo: Vec<usize> = (0..items.len()).filter(|&i| out[i].is_none()).collect();
+        let q: Vec<Query> = todo
             .par_iter()
-            .map(|(a, c)| self.query(a, *c, margin))
+            .map(|&i| self.query(&items[i].0, items[i].1, margin))
             .collect();
-        self.evaluate(&q)
+        let hits = self.evaluate(&q)?;
+        let mut known = self.known.lock().expect("prover cache");
+        for (&i, h) in todo.iter().zip(hits) {
+            let e = known.entry(keys[i]).or_insert(Known {
+                free: f64::NEG_INFINITY,
+                hit: f64::INFINITY,
+            });
+            if h {
+                e.hit = e.hit.min(margin);
+            } else {
+                e.free = e.free.max(margin);
+            }
+            out[i] = Some(h);
+        }
+        Ok(out.into_iter().map(|v| v.unwrap_or(true)).collect())
     }
 
     /// A lower bound for moves too wild to prove (the input's own): does
