@@ -60,7 +60,7 @@ fn struct_layouts_match_rust() {
         ("aabb_min", 0),
         ("tol", 12),
         ("aabb_max", 16),
-        ("margin", 28),
+        ("grid_slack", 28),
         ("grid_origin", 32),
         ("cell", 44),
         ("grid_dims", 48),
