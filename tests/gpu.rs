@@ -30,13 +30,24 @@ fn gpu(scene: &Scene, opts: GpuOptions) -> Option<GpuBackend> {
     }
 }
 
-/// GPU and CPU verdicts agree, except near-contacts under 1e-3 mm (listed).
+/// GPU and CPU verdicts agree, except near-contacts (the head's surface
+/// within 1e-3 mm of the query's margin; listed).
 fn agree(scene: &Scene, queries: &[Query], gpu: &GpuBackend, what: &str) -> usize {
+    agree_with(scene, queries, gpu, what).0
+}
+
+/// As [`agree`]; also returns the GPU's verdicts.
+fn agree_with(
+    scene: &Scene,
+    queries: &[Query],
+    gpu: &GpuBackend,
+    what: &str,
+) -> (usize, Vec<bool>) {
     let cpu = CpuBackend::new(scene).evaluate(queries).unwrap();
     let got = gpu.evaluate(queries).unwrap();
     assert_eq!(got.len(), queries.len());
     near_contacts_only(scene, queries, &cpu, &got, &format!("{what}, gpu vs cpu"));
-    cpu.iter().filter(|&&c| c).count()
+    (cpu.iter().filter(|&&c| c).count(), got)
 }
 
 #[test]
@@ -70,15 +81,41 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
         ) else {
             return;
         };
-        let queries = random_queries(&mut r, &scene, 500);
-        let hits = agree(&scene, &queries, &g, &format!("seed {seed}"));
-        let brute = BruteBackend::new(&scene).evaluate(&queries).unwrap();
-        let brute_hits = brute.iter().filter(|&&c| c).count();
-        assert!(
-            hits.abs_diff(brute_hits) <= 5,
-            "seed {seed}: cpu {hits}, brute {brute_hits}"
+        let base = random_queries(&mut r, &scene, 500);
+        for margin in MARGINS {
+            let queries = with_margin(&base, margin);
+            let what = format!("seed {seed}, margin {margin}");
+            let (hits, got) = agree_with(&scene, &queries, &g, &what);
+            let brute = BruteBackend::new(&scene).evaluate(&queries).unwrap();
+            let near = near_contacts_only(
+                &scene,
+                &queries,
+                &brute,
+                &got,
+                &format!("{what}, gpu vs brute force"),
+            );
+            assert!(
+                near * 100 <= queries.len(),
+                "{what}: too many near-contacts"
+            );
+            eprintln!("{what}: {hits} colliding");
+            assert!(hits > 20 && hits < 480, "{what}: {hits} colliding");
+        }
+    }
+}
+
+#[test]
+fn margins_decide_flat_and_edge_to_edge_approaches_on_the_gpu() {
+    for case in margin_cases() {
+        let Some(g) = gpu(&case.scene, GpuOptions::default()) else {
+            return;
+        };
+        assert_eq!(
+            g.evaluate(&case.queries).unwrap(),
+            case.expected,
+            "{}",
+            case.what
         );
-        assert!(hits > 20 && hits < 480);
     }
 }
 
@@ -97,7 +134,11 @@ fn simple_curve_every_waypoint_and_100k_tilted_poses() {
     assert!(own < 50);
     let tilted = tilted_queries(&scene.waypoint_queries, 100_000, 3);
     assert!(tilted.len() >= 100_000);
-    agree(&scene, &tilted, &g, "simple_curve tilted");
+    let at_zero = agree(&scene, &tilted, &g, "simple_curve tilted");
+    // The planner's default margin on a slice of the same poses.
+    let slice = with_margin(&tilted[..20_000], 0.05);
+    let at_margin = agree(&scene, &slice, &g, "simple_curve tilted, margin 0.05");
+    assert!(at_margin > 0 && at_zero > 0);
 }
 
 #[test]
