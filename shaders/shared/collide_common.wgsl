@@ -206,7 +206,6 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
 // Any head triangle closer than `margin`? Boxes grown by margin + tol.
 fn tri_near_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
     let grow = margin + head.tol;
-    let m2 = margin * margin;
     let tmin = min(min(a, b), c);
     let tmax = max(max(a, b), c);
     let lo = vec3<f32>(tmin.x - grow, tmin.y - grow, tmin.z - grow);
@@ -227,7 +226,7 @@ fn tri_near_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool 
                     let hmin = min(min(h.v0, h.v1), h.v2);
                     let hmax = max(max(h.v0, h.v1), h.v2);
                     if boxes_overlap(lo, hi, hmin, hmax)
-                        && tri_tri_distance_sq(a, b, c, h.v0, h.v1, h.v2) < m2 {
+                        && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin) {
                         hit = true;
                     }
                 }

@@ -1,4 +1,5 @@
-// Squared Euclidean distance between two triangles for the safety margin;
+// Squared Euclidean distance between two triangles for the safety margin,
+// and the closer-than predicate with its plane-separation early outs;
 // mirrors src/geometry/tri_tri_distance.rs line for line (vertex-triangle,
 // edge-edge and edge-crossing terms; no loops, so the exact kernel's loops
 // stay un-nested).
@@ -131,4 +132,27 @@ fn tri_tri_distance_sq(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q
     d = min(d, edge_crossing_distance_sq(q, r, a, b, c, n1));
     d = min(d, edge_crossing_distance_sq(r, p, a, b, c, n1));
     return d;
+}
+
+fn plane_separates(a: vec3<f32>, n: vec3<f32>, p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, m2: f32) -> bool {
+    let sp = dot3(n, p - a);
+    let sq = dot3(n, q - a);
+    let sr = dot3(n, r - a);
+    let lo = min(min(sp, sq), sr);
+    let hi = max(max(sp, sq), sr);
+    let lim = m2 * dot3(n, n);
+    return (lo > 0.0 && lo * lo >= lim) || (hi < 0.0 && hi * hi >= lim);
+}
+
+fn tri_tri_closer_than(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, margin: f32) -> bool {
+    let m2 = margin * margin;
+    let n1 = cross3(b - a, c - a);
+    if plane_separates(a, n1, p, q, r, m2) {
+        return false;
+    }
+    let n2 = cross3(q - p, r - p);
+    if plane_separates(p, n2, a, b, c, m2) {
+        return false;
+    }
+    return tri_tri_distance_sq(a, b, c, p, q, r) < m2;
 }

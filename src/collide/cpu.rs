@@ -21,7 +21,7 @@ use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::aabb::{overlaps, point_box_distance, triangle_box_overlap};
 use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::TriPlane;
-use crate::geometry::tri_tri_distance::tri_tri_distance_sq;
+use crate::geometry::tri_tri_distance::tri_tri_closer_than;
 use crate::geometry::{length, sub, vmax, vmin, V3};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
@@ -240,11 +240,12 @@ pub fn tri_hits_exact(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
 /// Is any head triangle closer than `margin` to the triangle `(a, b, c)`
 /// (head frame)? Walks the head BVH with the boxes grown by the margin
 /// (plus the contact tolerance), skips head triangles whose own boxes are
-/// farther apart than that on some axis, and measures the rest exactly.
+/// farther apart than that on some axis, and asks
+/// [`tri_tri_closer_than`] about the rest (plane separation, then the
+/// exact distance).
 #[inline(always)]
 pub fn tri_near_head(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
     let grow = margin + s.head.tol;
-    let m2 = margin * margin;
     let tmin = vmin(vmin(a, b), c);
     let tmax = vmax(vmax(a, b), c);
     let lo = [tmin[0] - grow, tmin[1] - grow, tmin[2] - grow];
@@ -264,7 +265,7 @@ pub fn tri_near_head(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
                     let hmin = vmin(vmin(h.v0, h.v1), h.v2);
                     let hmax = vmax(vmax(h.v0, h.v1), h.v2);
                     if overlaps(lo, hi, hmin, hmax)
-                        && tri_tri_distance_sq(a, b, c, h.v0, h.v1, h.v2) < m2
+                        && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin)
                     {
                         return true;
                     }

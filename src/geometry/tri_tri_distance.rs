@@ -14,6 +14,11 @@
 //! underestimates beyond rounding. Everything works on squared distances;
 //! callers compare with `margin²`.
 //!
+//! [`tri_tri_closer_than`] is the predicate the evaluators use: most pairs
+//! it sees lie more than the margin apart on either side of one
+//! triangle's plane (a lower bound on their distance), which three dot
+//! products show before the 21 distance terms run.
+//!
 //! The brute-force evaluator (`collide/brute.rs`) has its own `f64`
 //! distance by a different formulation; tests compare the two.
 
@@ -54,6 +59,37 @@ pub fn tri_tri_distance_sq(a: V3, b: V3, c: V3, p: V3, q: V3, r: V3) -> f32 {
     d = d.min(edge_crossing_distance_sq(q, r, a, b, c, n1));
     d = d.min(edge_crossing_distance_sq(r, p, a, b, c, n1));
     d
+}
+
+/// Are triangles `(a, b, c)` and `(p, q, r)` closer than `margin`
+/// (`margin > 0`)? Plane separation first, then [`tri_tri_distance_sq`].
+#[inline(always)]
+pub fn tri_tri_closer_than(a: V3, b: V3, c: V3, p: V3, q: V3, r: V3, margin: f32) -> bool {
+    let m2 = margin * margin;
+    let n1 = cross(sub(b, a), sub(c, a));
+    if plane_separates(a, n1, p, q, r, m2) {
+        return false;
+    }
+    let n2 = cross(sub(q, p), sub(r, p));
+    if plane_separates(p, n2, a, b, c, m2) {
+        return false;
+    }
+    tri_tri_distance_sq(a, b, c, p, q, r) < m2
+}
+
+/// Do `p`, `q` and `r` all lie strictly on one side of the plane through
+/// `a` with (unnormalised) normal `n`, at least `√m2` from it? Then every
+/// point of their triangle is at least that far from anything in the
+/// plane. Squared, so no square root: `s² ≥ m2 · |n|²`.
+#[inline(always)]
+pub fn plane_separates(a: V3, n: V3, p: V3, q: V3, r: V3, m2: f32) -> bool {
+    let sp = dot(n, sub(p, a));
+    let sq = dot(n, sub(q, a));
+    let sr = dot(n, sub(r, a));
+    let lo = sp.min(sq).min(sr);
+    let hi = sp.max(sq).max(sr);
+    let lim = m2 * dot(n, n);
+    (lo > 0.0 && lo * lo >= lim) || (hi < 0.0 && hi * hi >= lim)
 }
 
 /// Distance between triangles `(a, b, c)` and `(p, q, r)`.
@@ -364,6 +400,29 @@ mod tests {
         .fold(f32::INFINITY, f32::min)
         .sqrt();
         assert!(others > 0.056, "{others}");
+    }
+
+    #[test]
+    fn closer_than_agrees_with_the_distance() {
+        let mut r = ChaCha8Rng::seed_from_u64(3);
+        let mut separated = 0;
+        for _ in 0..3000 {
+            let s = random_tri(&mut r, [0.0; 3], 1.0);
+            let c = r.random_range(0.0..2.5f32);
+            let t = random_tri(&mut r, [c, 0.0, 0.0], 1.0);
+            let d = dist(&s, &t);
+            let m = r.random_range(0.01..1.0f32);
+            let n = cross(sub(t[1], t[0]), sub(t[2], t[0]));
+            separated += plane_separates(t[0], n, s[0], s[1], s[2], m * m) as u32;
+            if (d - m).abs() > 1e-5 {
+                assert_eq!(
+                    tri_tri_closer_than(s[0], s[1], s[2], t[0], t[1], t[2], m),
+                    d < m,
+                    "{d} vs margin {m}: {s:?} {t:?}"
+                );
+            }
+        }
+        assert!(separated > 300, "{separated} pairs separated by a plane");
     }
 
     #[test]
