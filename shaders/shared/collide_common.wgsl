@@ -113,9 +113,17 @@ fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     return 0;
 }
 
-fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
+// Möller against the head, or, with a positive margin, closer than it:
+// one walk with boxes grown by tol + margin (cpu.rs `tri_crosses_head`).
+fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
     let tol = head.tol;
+    let grow = margin + tol;
     let plane = tri_plane(a, b, c, tol);
+    let lim = margin * margin * dot3(plane.n, plane.n);
+    let tmin = min(min(a, b), c);
+    let tmax = max(max(a, b), c);
+    let lo = vec3<f32>(tmin.x - grow, tmin.y - grow, tmin.z - grow);
+    let hi = vec3<f32>(tmax.x + grow, tmax.y + grow, tmax.z + grow);
     var stack: array<u32, STACK_SIZE>;
     var sp = 1u;
     stack[0] = 0u;
@@ -123,7 +131,7 @@ fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
     while sp > 0u && !hit {
         sp -= 1u;
         let node = head_nodes[stack[sp]];
-        if triangle_box_overlap(a, b, c, tol, node.min, node.max) {
+        if triangle_box_overlap(a, b, c, grow, node.min, node.max) {
             if is_leaf(node.packed) {
                 let first = leaf_first(node.packed);
                 let end = first + leaf_count(node.packed);
@@ -131,6 +139,13 @@ fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
                     let h = head_tris[t];
                     if tri_plane_overlaps(plane, a, b, c, h.v0, h.v1, h.v2, tol) {
                         hit = true;
+                    } else if margin > 0.0 && !plane_separates(plane.n, plane.d, lim, h.v0, h.v1, h.v2) {
+                        let hmin = min(min(h.v0, h.v1), h.v2);
+                        let hmax = max(max(h.v0, h.v1), h.v2);
+                        if boxes_overlap(lo, hi, hmin, hmax)
+                            && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin) {
+                            hit = true;
+                        }
                     }
                 }
             } else {
@@ -203,57 +218,16 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
     return HeadTri(a, b, c, classify(m, r, q.margin));
 }
 
-// Any head triangle closer than `margin`? Boxes grown by margin + tol.
-fn tri_near_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
-    let grow = margin + head.tol;
-    let tmin = min(min(a, b), c);
-    let tmax = max(max(a, b), c);
-    let lo = vec3<f32>(tmin.x - grow, tmin.y - grow, tmin.z - grow);
-    let hi = vec3<f32>(tmax.x + grow, tmax.y + grow, tmax.z + grow);
-    var stack: array<u32, STACK_SIZE>;
-    var sp = 1u;
-    stack[0] = 0u;
-    var hit = false;
-    while sp > 0u && !hit {
-        sp -= 1u;
-        let node = head_nodes[stack[sp]];
-        if triangle_box_overlap(a, b, c, grow, node.min, node.max) {
-            if is_leaf(node.packed) {
-                let first = leaf_first(node.packed);
-                let end = first + leaf_count(node.packed);
-                for (var t = first; t < end; t++) {
-                    let h = head_tris[t];
-                    let hmin = min(min(h.v0, h.v1), h.v2);
-                    let hmax = max(max(h.v0, h.v1), h.v2);
-                    if boxes_overlap(lo, hi, hmin, hmax)
-                        && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin) {
-                        hit = true;
-                    }
-                }
-            } else {
-                stack[sp] = node.packed;
-                stack[sp + 1u] = node.packed + 1u;
-                sp += 2u;
-            }
-        }
-    }
-    return hit;
-}
-
 // The exact half of cpu.rs `tri_hits` (`tri_hits_exact`), for an undecided
-// triangle: crossing, containment, then the margin. The three walks of the
-// head BVH run one after another, never nested.
+// triangle: crossing or within the margin, then containment. The two walks
+// of the head BVH run one after another, never nested.
 fn tri_hits_exact(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
-    if tri_crosses_head(a, b, c) {
+    if tri_crosses_head(a, b, c, margin) {
         return true;
     }
     let cls_a = classify(a, 0.0, 0.0);
-    var inside = cls_a < 0;
-    if cls_a == 0 {
-        inside = point_in_head(a);
+    if cls_a != 0 {
+        return cls_a < 0;
     }
-    if inside {
-        return true;
-    }
-    return margin > 0.0 && tri_near_head(a, b, c, margin);
+    return point_in_head(a);
 }

@@ -134,24 +134,23 @@ fn tri_tri_distance_sq(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q
     return d;
 }
 
-fn plane_separates(a: vec3<f32>, n: vec3<f32>, p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, m2: f32) -> bool {
-    let sp = dot3(n, p - a);
-    let sq = dot3(n, q - a);
-    let sr = dot3(n, r - a);
+fn plane_separates(n: vec3<f32>, d: f32, lim: f32, p: vec3<f32>, q: vec3<f32>, r: vec3<f32>) -> bool {
+    let sp = dot3(n, p) + d;
+    let sq = dot3(n, q) + d;
+    let sr = dot3(n, r) + d;
     let lo = min(min(sp, sq), sr);
     let hi = max(max(sp, sq), sr);
-    let lim = m2 * dot3(n, n);
     return (lo > 0.0 && lo * lo >= lim) || (hi < 0.0 && hi * hi >= lim);
 }
 
 fn tri_tri_closer_than(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, margin: f32) -> bool {
     let m2 = margin * margin;
     let n1 = cross3(b - a, c - a);
-    if plane_separates(a, n1, p, q, r, m2) {
+    if plane_separates(n1, -dot3(n1, a), m2 * dot3(n1, n1), p, q, r) {
         return false;
     }
     let n2 = cross3(q - p, r - p);
-    if plane_separates(p, n2, a, b, c, m2) {
+    if plane_separates(n2, -dot3(n2, p), m2 * dot3(n2, n2), a, b, c) {
         return false;
     }
     return tri_tri_distance_sq(a, b, c, p, q, r) < m2;

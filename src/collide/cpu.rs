@@ -12,17 +12,17 @@
 //! query's safety margin (skip), wholly inside (a collision: the node holds
 //! a triangle that exists), or unknown (descend). Leaf triangles get the
 //! same classification, then the exact tests: Möller against the head
-//! triangles its box touches; when nothing crosses, containment of one
-//! vertex (grid first, ray parity if the grid cannot say); when the
-//! triangle is outside and the margin is positive, its distance to the head
-//! triangles whose boxes lie within the margin.
+//! triangles its box touches and, with a positive margin, the distance to
+//! the head triangles whose boxes lie within the margin (one walk); when
+//! nothing crosses or comes near, containment of one vertex (grid first,
+//! ray parity if the grid cannot say).
 
 use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::aabb::{overlaps, point_box_distance, triangle_box_overlap};
 use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::TriPlane;
-use crate::geometry::tri_tri_distance::tri_tri_closer_than;
-use crate::geometry::{length, sub, vmax, vmin, V3};
+use crate::geometry::tri_tri_distance::{plane_separates, tri_tri_closer_than};
+use crate::geometry::{dot, length, sub, vmax, vmin, V3};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
 
@@ -218,34 +218,38 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
 }
 
 /// The exact tests for a triangle (head frame) the grid could not settle:
-/// crossing, containment, then — with a positive margin — distance.
+/// crossing (or, with a positive margin, coming within it), then
+/// containment.
 #[inline(always)]
 pub fn tri_hits_exact(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
-    if tri_crosses_head(s, a, b, c) {
+    if tri_crosses_head(s, a, b, c, margin) {
         return true;
     }
     // A triangle that crosses nothing is wholly inside or wholly outside.
     let cls = classify(s.head, s.grid, a, 0.0, 0.0);
-    let inside = if cls != 0 {
-        cls < 0
-    } else {
-        point_in_head(s, a)
-    };
-    if inside {
-        return true;
+    if cls != 0 {
+        return cls < 0;
     }
-    margin > 0.0 && tri_near_head(s, a, b, c, margin)
+    point_in_head(s, a)
 }
 
-/// Is any head triangle closer than `margin` to the triangle `(a, b, c)`
-/// (head frame)? Walks the head BVH with the boxes grown by the margin
-/// (plus the contact tolerance), skips head triangles whose own boxes are
-/// farther apart than that on some axis, and asks
-/// [`tri_tri_closer_than`] about the rest (plane separation, then the
-/// exact distance).
+/// Does the triangle `(a, b, c)` (head frame) cross a head triangle
+/// (Möller), or, with a positive `margin`, come closer than the margin to
+/// one? One walk of the head BVH, the boxes grown by the contact tolerance
+/// plus the margin (exactly the tolerance at margin 0); per head
+/// triangle, Möller first, then — margin > 0 only — the head triangle
+/// against the part triangle's plane (Möller's own plane, so the dot
+/// products are shared: farther than the margin on one side settles ~97 %
+/// of pairs on simple_curve), the two triangles' boxes grown by the same
+/// amount, and [`tri_tri_closer_than`] (the other plane, then the exact
+/// distance). Crossing and nearness share the walk because a second walk
+/// per undecided triangle cost more than the distance tests themselves.
 #[inline(always)]
-pub fn tri_near_head(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
-    let grow = margin + s.head.tol;
+pub fn tri_crosses_head(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
+    let tol = s.head.tol;
+    let grow = margin + tol;
+    let plane = TriPlane::new(a, b, c, tol);
+    let lim = margin * margin * dot(plane.n, plane.n);
     let tmin = vmin(vmin(a, b), c);
     let tmax = vmax(vmax(a, b), c);
     let lo = [tmin[0] - grow, tmin[1] - grow, tmin[2] - grow];
@@ -262,45 +266,17 @@ pub fn tri_near_head(s: &SceneView, a: V3, b: V3, c: V3, margin: f32) -> bool {
             Some((first, count)) => {
                 for t in first..first + count {
                     let h = &s.head_tris[t as usize];
-                    let hmin = vmin(vmin(h.v0, h.v1), h.v2);
-                    let hmax = vmax(vmax(h.v0, h.v1), h.v2);
-                    if overlaps(lo, hi, hmin, hmax)
-                        && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin)
-                    {
-                        return true;
-                    }
-                }
-            }
-            None => {
-                stack[sp] = node.packed;
-                stack[sp + 1] = node.packed + 1;
-                sp += 2;
-            }
-        }
-    }
-    false
-}
-
-/// Möller tests against the head triangles whose BVH boxes the triangle's
-/// plane passes through.
-#[inline(always)]
-pub fn tri_crosses_head(s: &SceneView, a: V3, b: V3, c: V3) -> bool {
-    let tol = s.head.tol;
-    let plane = TriPlane::new(a, b, c, tol);
-    let mut stack = [0u32; STACK_SIZE];
-    let mut sp = 1usize;
-    while sp > 0 {
-        sp -= 1;
-        let node = s.head_nodes[stack[sp] as usize];
-        if !triangle_box_overlap(a, b, c, tol, node.min, node.max) {
-            continue;
-        }
-        match node.leaf_range() {
-            Some((first, count)) => {
-                for t in first..first + count {
-                    let h = &s.head_tris[t as usize];
                     if plane.overlaps(a, b, c, h.v0, h.v1, h.v2, tol) {
                         return true;
+                    }
+                    if margin > 0.0 && !plane_separates(plane.n, plane.d, lim, h.v0, h.v1, h.v2) {
+                        let hmin = vmin(vmin(h.v0, h.v1), h.v2);
+                        let hmax = vmax(vmax(h.v0, h.v1), h.v2);
+                        if overlaps(lo, hi, hmin, hmax)
+                            && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin)
+                        {
+                            return true;
+                        }
                     }
                 }
             }

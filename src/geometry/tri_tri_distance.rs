@@ -17,7 +17,7 @@
 //! [`tri_tri_closer_than`] is the predicate the evaluators use: most pairs
 //! it sees lie more than the margin apart on either side of one
 //! triangle's plane (a lower bound on their distance), which three dot
-//! products show before the 21 distance terms run.
+//! products show ([`plane_separates`]) before the 21 distance terms run.
 //!
 //! The brute-force evaluator (`collide/brute.rs`) has its own `f64`
 //! distance by a different formulation; tests compare the two.
@@ -67,28 +67,30 @@ pub fn tri_tri_distance_sq(a: V3, b: V3, c: V3, p: V3, q: V3, r: V3) -> f32 {
 pub fn tri_tri_closer_than(a: V3, b: V3, c: V3, p: V3, q: V3, r: V3, margin: f32) -> bool {
     let m2 = margin * margin;
     let n1 = cross(sub(b, a), sub(c, a));
-    if plane_separates(a, n1, p, q, r, m2) {
+    if plane_separates(n1, -dot(n1, a), m2 * dot(n1, n1), p, q, r) {
         return false;
     }
     let n2 = cross(sub(q, p), sub(r, p));
-    if plane_separates(p, n2, a, b, c, m2) {
+    if plane_separates(n2, -dot(n2, p), m2 * dot(n2, n2), a, b, c) {
         return false;
     }
     tri_tri_distance_sq(a, b, c, p, q, r) < m2
 }
 
-/// Do `p`, `q` and `r` all lie strictly on one side of the plane through
-/// `a` with (unnormalised) normal `n`, at least `√m2` from it? Then every
-/// point of their triangle is at least that far from anything in the
-/// plane. Squared, so no square root: `s² ≥ m2 · |n|²`.
+/// Do `p`, `q` and `r` all lie strictly on one side of the plane
+/// `n · x + d = 0` (`n` unnormalised), at least `margin` from it, where
+/// `lim = margin² · |n|²`? Then every point of their triangle is at least
+/// that far from anything in the plane. Squared, so no square root:
+/// `s² ≥ lim` with `s = n · x + d`, the form Möller's test
+/// (`geometry::tri_tri::TriPlane`) evaluates, so a caller holding that
+/// plane can share it.
 #[inline(always)]
-pub fn plane_separates(a: V3, n: V3, p: V3, q: V3, r: V3, m2: f32) -> bool {
-    let sp = dot(n, sub(p, a));
-    let sq = dot(n, sub(q, a));
-    let sr = dot(n, sub(r, a));
+pub fn plane_separates(n: V3, d: f32, lim: f32, p: V3, q: V3, r: V3) -> bool {
+    let sp = dot(n, p) + d;
+    let sq = dot(n, q) + d;
+    let sr = dot(n, r) + d;
     let lo = sp.min(sq).min(sr);
     let hi = sp.max(sq).max(sr);
-    let lim = m2 * dot(n, n);
     (lo > 0.0 && lo * lo >= lim) || (hi < 0.0 && hi * hi >= lim)
 }
 
@@ -413,7 +415,8 @@ mod tests {
             let d = dist(&s, &t);
             let m = r.random_range(0.01..1.0f32);
             let n = cross(sub(t[1], t[0]), sub(t[2], t[0]));
-            separated += plane_separates(t[0], n, s[0], s[1], s[2], m * m) as u32;
+            let lim = m * m * dot(n, n);
+            separated += plane_separates(n, -dot(n, t[0]), lim, s[0], s[1], s[2]) as u32;
             if (d - m).abs() > 1e-5 {
                 assert_eq!(
                     tri_tri_closer_than(s[0], s[1], s[2], t[0], t[1], t[2], m),
