@@ -37,6 +37,13 @@ struct Control {
 @group(0) @binding(15) var<storage, read_write> control: Control;
 
 const STACK_SIZE: u32 = 64u;
+// Whether tri_crosses_head has the margin's distance tests at all. The host
+// builds collide_exact twice and runs the variant without them on batches
+// whose queries all have margin 0: lavapipe evaluates the body of a branch
+// even when no invocation takes it, which made margin-0 batches cost 4×
+// their former instructions. With the tests compiled in, a query with
+// margin 0 still skips them, as cpu.rs does.
+override MARGIN_TESTS: bool = true;
 const WORKGROUP: u32 = 64u;
 
 fn part_node(i: u32) -> PartNode {
@@ -139,12 +146,14 @@ fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bo
                     let h = head_tris[t];
                     if tri_plane_overlaps(plane, a, b, c, h.v0, h.v1, h.v2, tol) {
                         hit = true;
-                    } else if margin > 0.0 && !plane_separates(plane.n, plane.d, lim, h.v0, h.v1, h.v2) {
-                        let hmin = min(min(h.v0, h.v1), h.v2);
-                        let hmax = max(max(h.v0, h.v1), h.v2);
-                        if boxes_overlap(lo, hi, hmin, hmax)
-                            && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin) {
-                            hit = true;
+                    } else if MARGIN_TESTS {
+                        if margin > 0.0 && !plane_separates(plane.n, plane.d, lim, h.v0, h.v1, h.v2) {
+                            let hmin = min(min(h.v0, h.v1), h.v2);
+                            let hmax = max(max(h.v0, h.v1), h.v2);
+                            if boxes_overlap(lo, hi, hmin, hmax)
+                                && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin) {
+                                hit = true;
+                            }
                         }
                     }
                 }
