@@ -147,6 +147,14 @@ fn margins_decide_flat_and_edge_to_edge_approaches_on_the_gpu() {
             "{}",
             case.what
         );
+        let bad = [Query {
+            margin: -0.01,
+            ..case.queries[0]
+        }];
+        assert!(matches!(
+            g.evaluate(&bad),
+            Err(maamplan::collide::CollideError::BadMargin(0))
+        ));
     }
 }
 
