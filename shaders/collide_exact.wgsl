@@ -1,6 +1,6 @@
 // Pass 2, one invocation per candidate (query, triangle): the exact tests
-// (Möller against the head, then containment) for triangles the grid could
-// not settle.
+// (Möller against the head, then containment, then the distance when the
+// query has a safety margin) for triangles the grid could not settle.
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -12,8 +12,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if atomicLoad(&results[pair.x]) != 0u {
         return; // Already colliding.
     }
-    let h = head_tri(queries[pair.x], part_tri(pair.y));
-    if tri_hits_exact(h.a, h.b, h.c) {
+    let q = queries[pair.x];
+    let h = head_tri(q, part_tri(pair.y));
+    if tri_hits_exact(h.a, h.b, h.c, q.margin) {
         atomicOr(&results[pair.x], 1u);
     }
 }

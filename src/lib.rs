@@ -3,7 +3,8 @@
 //! Collision-free, singularity-aware motion planning for multi-axis additive
 //! manufacturing. This crate answers one question millions of times: *with
 //! the print head at this pose, does it touch the platform or anything
-//! already printed?* — exactly (triangle-level), for batches of poses.
+//! already printed (or come closer to it than a safety margin)?* — exactly
+//! (triangle-level), for batches of poses.
 //! [`plan`] builds machine motion on top of it, and [`generate`] makes the
 //! waypoints from a mesh (planar slicing with raster fills, iso-planar
 //! paths on a curved layer).

@@ -1,6 +1,7 @@
 //! The real data set: on simple_curve (data-set head and platform, placed
 //! at z = 40.5 mm as the original software did) the cpu and parry backends
-//! give the same verdict for every waypoint and for tilted poses.
+//! give the same verdict for every waypoint and for tilted poses, at
+//! margin 0 and at the planner's default safety margin (0.05 mm).
 
 mod common;
 
@@ -32,5 +33,11 @@ fn simple_curve_every_waypoint_and_tilted_poses_agree() {
     assert!(
         hits > 100 && hits < tilted.len() - 100,
         "{hits} colliding tilted poses"
+    );
+    let with_margin = common::with_margin(&tilted, 0.05);
+    let hits_margin = compare(&scene, &with_margin);
+    assert!(
+        hits_margin > hits,
+        "margin 0.05: {hits_margin} colliding, margin 0: {hits}"
     );
 }

@@ -1,6 +1,7 @@
-//! Differential tests: cpu, parry and brute force agree on random scenes.
-//! The only allowed disagreements are near-contacts closer than 1e-3 mm
-//! (DESIGN.md), and each one is listed.
+//! Differential tests: cpu, parry and brute force agree on random scenes,
+//! at every safety margin in `MARGINS`. The only allowed disagreements are
+//! near-contacts — the head's surface within 1e-3 mm of the margin from the
+//! nearest existing triangle (DESIGN.md) — and each one is listed.
 
 mod common;
 
@@ -62,15 +63,97 @@ fn random_scenes_asymmetric_head() {
         let head = star_head(&radii, 6.0, 14.0, [1.5, -0.7]);
         let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
         let scene = Scene::build(&tp, &head, &platform, &cfg(0.2)).unwrap();
-        let queries = random_queries(&mut r, &scene, 500);
+        let base = random_queries(&mut r, &scene, 500);
         let cpu = CpuBackend::new(&scene);
         let parry = ParryBackend::new(&scene).unwrap();
-        let (hit, free) = agree(&scene, &queries, &[&cpu, &parry], &format!("seed {seed}"));
-        eprintln!("seed {seed}: {hit} colliding, {free} free");
+        let mut previous = 0;
+        for margin in MARGINS {
+            let queries = with_margin(&base, margin);
+            let what = format!("seed {seed}, margin {margin}");
+            let (hit, free) = agree(&scene, &queries, &[&cpu, &parry], &what);
+            eprintln!("{what}: {hit} colliding, {free} free");
+            assert!(
+                hit > 20 && free > 20,
+                "{what}: want both verdicts, got {hit} colliding / {free} free"
+            );
+            assert!(hit >= previous, "{what}: a larger margin frees poses");
+            previous = hit;
+        }
+    }
+}
+
+#[test]
+fn verdicts_flip_at_each_poses_own_distance() {
+    for seed in 20..23u64 {
+        let mut r = rng(seed);
+        let tp = random_toolpath(&mut r, 3, 0.7);
+        let radii: Vec<f32> = (0..11)
+            .map(|j| 4.0 + 3.0 * ((j * 5 % 11) as f32 / 11.0))
+            .collect();
+        let head = star_head(&radii, 6.0, 14.0, [-1.0, 0.8]);
+        let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
+        let scene = Scene::build(&tp, &head, &platform, &cfg(0.2)).unwrap();
+        let base = random_queries(&mut r, &scene, 300);
+        let (queries, expected) = margin_boundary_queries(&scene, &base, 1.5);
         assert!(
-            hit > 20 && free > 20,
-            "seed {seed}: want both verdicts, got {hit} colliding / {free} free"
+            queries.len() > 100,
+            "seed {seed}: {} queries",
+            queries.len()
         );
+        let cpu = CpuBackend::new(&scene);
+        let parry = ParryBackend::new(&scene).unwrap();
+        let brute = BruteBackend::new(&scene);
+        for b in [&cpu as &dyn Backend, &parry, &brute] {
+            let got = b.evaluate(&queries).unwrap();
+            let wrong: Vec<_> = (0..queries.len())
+                .filter(|&i| got[i] != expected[i])
+                .map(|i| (i, queries[i].margin, expected[i]))
+                .collect();
+            assert!(wrong.is_empty(), "seed {seed}, {}: {wrong:?}", b.name());
+        }
+    }
+}
+
+#[test]
+fn margins_decide_flat_and_edge_to_edge_approaches() {
+    for case in margin_cases() {
+        let truth = BruteBackend::new(&case.scene)
+            .evaluate(&case.queries)
+            .unwrap();
+        assert_eq!(truth, case.expected, "{}: brute force", case.what);
+        let cpu = CpuBackend::new(&case.scene);
+        let parry = ParryBackend::new(&case.scene).unwrap();
+        for b in [&cpu as &dyn Backend, &parry] {
+            assert_eq!(
+                b.evaluate(&case.queries).unwrap(),
+                case.expected,
+                "{}: {}",
+                case.what,
+                b.name()
+            );
+        }
+    }
+}
+
+#[test]
+fn negative_or_nan_margins_are_refused() {
+    let (_, scene) = default_scene();
+    let q = scene.waypoint_queries[0];
+    for margin in [-0.01, f32::NAN, f32::INFINITY] {
+        let queries = [q, Query { margin, ..q }];
+        let backends: [&dyn Backend; 3] = [
+            &CpuBackend::new(&scene),
+            &ParryBackend::new(&scene).unwrap(),
+            &BruteBackend::new(&scene),
+        ];
+        for b in backends {
+            let err = b.evaluate(&queries).unwrap_err();
+            assert!(
+                matches!(err, maamplan::collide::CollideError::BadMargin(1)),
+                "{}: {err}",
+                b.name()
+            );
+        }
     }
 }
 

@@ -30,13 +30,24 @@ fn gpu(scene: &Scene, opts: GpuOptions) -> Option<GpuBackend> {
     }
 }
 
-/// GPU and CPU verdicts agree, except near-contacts under 1e-3 mm (listed).
+/// GPU and CPU verdicts agree, except near-contacts (the head's surface
+/// within 1e-3 mm of the query's margin; listed).
 fn agree(scene: &Scene, queries: &[Query], gpu: &GpuBackend, what: &str) -> usize {
+    agree_with(scene, queries, gpu, what).0
+}
+
+/// As [`agree`]; also returns the GPU's verdicts.
+fn agree_with(
+    scene: &Scene,
+    queries: &[Query],
+    gpu: &GpuBackend,
+    what: &str,
+) -> (usize, Vec<bool>) {
     let cpu = CpuBackend::new(scene).evaluate(queries).unwrap();
     let got = gpu.evaluate(queries).unwrap();
     assert_eq!(got.len(), queries.len());
     near_contacts_only(scene, queries, &cpu, &got, &format!("{what}, gpu vs cpu"));
-    cpu.iter().filter(|&&c| c).count()
+    (cpu.iter().filter(|&&c| c).count(), got)
 }
 
 #[test]
@@ -70,15 +81,80 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
         ) else {
             return;
         };
-        let queries = random_queries(&mut r, &scene, 500);
-        let hits = agree(&scene, &queries, &g, &format!("seed {seed}"));
-        let brute = BruteBackend::new(&scene).evaluate(&queries).unwrap();
-        let brute_hits = brute.iter().filter(|&&c| c).count();
-        assert!(
-            hits.abs_diff(brute_hits) <= 5,
-            "seed {seed}: cpu {hits}, brute {brute_hits}"
+        let base = random_queries(&mut r, &scene, 500);
+        for margin in MARGINS {
+            let queries = with_margin(&base, margin);
+            let what = format!("seed {seed}, margin {margin}");
+            let (hits, got) = agree_with(&scene, &queries, &g, &what);
+            let brute = BruteBackend::new(&scene).evaluate(&queries).unwrap();
+            let near = near_contacts_only(
+                &scene,
+                &queries,
+                &brute,
+                &got,
+                &format!("{what}, gpu vs brute force"),
+            );
+            assert!(
+                near * 100 <= queries.len(),
+                "{what}: too many near-contacts"
+            );
+            eprintln!("{what}: {hits} colliding");
+            assert!(hits > 20 && hits < 480, "{what}: {hits} colliding");
+        }
+    }
+}
+
+#[test]
+fn gpu_verdicts_flip_at_each_poses_own_distance() {
+    let mut r = rng(120);
+    let tp = random_toolpath(&mut r, 3, 0.7);
+    let radii: Vec<f32> = (0..11)
+        .map(|j| 4.0 + 3.0 * ((j * 5 % 11) as f32 / 11.0))
+        .collect();
+    let head = star_head(&radii, 6.0, 14.0, [-1.0, 0.8]);
+    let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
+    let cfg = SceneConfig {
+        head: HeadConfig {
+            tip_clearance: 0.2,
+            grid_resolution: 48,
+        },
+        max_edge: None,
+    };
+    let scene = Scene::build(&tp, &head, &platform, &cfg).unwrap();
+    let Some(g) = gpu(&scene, GpuOptions::default()) else {
+        return;
+    };
+    let base = random_queries(&mut r, &scene, 300);
+    let (queries, expected) = margin_boundary_queries(&scene, &base, 1.5);
+    assert!(queries.len() > 100, "{} queries", queries.len());
+    let got = g.evaluate(&queries).unwrap();
+    let wrong: Vec<_> = (0..queries.len())
+        .filter(|&i| got[i] != expected[i])
+        .map(|i| (i, queries[i].margin, expected[i]))
+        .collect();
+    assert!(wrong.is_empty(), "{wrong:?}");
+}
+
+#[test]
+fn margins_decide_flat_and_edge_to_edge_approaches_on_the_gpu() {
+    for case in margin_cases() {
+        let Some(g) = gpu(&case.scene, GpuOptions::default()) else {
+            return;
+        };
+        assert_eq!(
+            g.evaluate(&case.queries).unwrap(),
+            case.expected,
+            "{}",
+            case.what
         );
-        assert!(hits > 20 && hits < 480);
+        let bad = [Query {
+            margin: -0.01,
+            ..case.queries[0]
+        }];
+        assert!(matches!(
+            g.evaluate(&bad),
+            Err(maamplan::collide::CollideError::BadMargin(0))
+        ));
     }
 }
 
@@ -97,7 +173,11 @@ fn simple_curve_every_waypoint_and_100k_tilted_poses() {
     assert!(own < 50);
     let tilted = tilted_queries(&scene.waypoint_queries, 100_000, 3);
     assert!(tilted.len() >= 100_000);
-    agree(&scene, &tilted, &g, "simple_curve tilted");
+    let at_zero = agree(&scene, &tilted, &g, "simple_curve tilted");
+    // The planner's default margin on a slice of the same poses.
+    let slice = with_margin(&tilted[..20_000], 0.05);
+    let at_margin = agree(&scene, &slice, &g, "simple_curve tilted, margin 0.05");
+    assert!(at_margin > 0 && at_zero > 0);
 }
 
 #[test]

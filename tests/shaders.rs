@@ -60,7 +60,7 @@ fn struct_layouts_match_rust() {
         ("aabb_min", 0),
         ("tol", 12),
         ("aabb_max", 16),
-        ("margin", 28),
+        ("grid_slack", 28),
         ("grid_origin", 32),
         ("cell", 44),
         ("grid_dims", 48),
@@ -75,6 +75,32 @@ fn struct_layouts_match_rust() {
         let got = offsets.iter().find(|(n, _)| n == name).map(|(_, o)| *o);
         assert_eq!(got, Some(off), "HeadParams.{name}");
     }
+    // The query's cutoff and safety margin, which every kernel reads.
+    let (_, query) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("Query"))
+        .unwrap();
+    let naga::TypeInner::Struct { members, .. } = &query.inner else {
+        panic!("Query is a struct")
+    };
+    let offset = |name: &str| members.iter().find(|m| m.name.as_deref() == Some(name));
+    assert_eq!(offset("cutoff").map(|m| m.offset), Some(48));
+    assert_eq!(offset("margin").map(|m| m.offset), Some(52));
+    let is_f32 = |m: &naga::StructMember| {
+        matches!(
+            module.types[m.ty].inner,
+            naga::TypeInner::Scalar(naga::Scalar {
+                kind: naga::ScalarKind::Float,
+                width: 4
+            })
+        )
+    };
+    assert!(offset("margin").is_some_and(is_f32), "Query.margin is f32");
+    let q = GpuQuery::default();
+    let base = &q as *const _ as usize;
+    assert_eq!(&q.cutoff as *const _ as usize - base, 48);
+    assert_eq!(&q.margin as *const _ as usize - base, 52);
     // And the Rust side, by construction of a value.
     let p = GpuHeadParams::default();
     let base = &p as *const _ as usize;

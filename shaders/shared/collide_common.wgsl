@@ -37,6 +37,13 @@ struct Control {
 @group(0) @binding(15) var<storage, read_write> control: Control;
 
 const STACK_SIZE: u32 = 64u;
+// Whether tri_crosses_head has the margin's distance tests at all. The host
+// builds collide_exact twice and runs the variant without them on batches
+// whose queries all have margin 0: lavapipe evaluates the body of a branch
+// even when no invocation takes it, which made margin-0 batches cost 4×
+// their former instructions. With the tests compiled in, a query with
+// margin 0 still skips them, as cpu.rs does.
+override MARGIN_TESTS: bool = true;
 const WORKGROUP: u32 = 64u;
 
 fn part_node(i: u32) -> PartNode {
@@ -76,8 +83,9 @@ fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// 1 = wholly outside, -1 = wholly inside, 0 = cannot tell.
-fn classify(c: vec3<f32>, r: f32) -> i32 {
+// 1 = wholly outside and more than `margin` from the surface, -1 = wholly
+// inside, 0 = cannot tell.
+fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     let fx = (c.x - head.grid_origin.x) * head.inv_cell;
     let fy = (c.y - head.grid_origin.y) * head.inv_cell;
     let fz = (c.z - head.grid_origin.z) * head.inv_cell;
@@ -86,7 +94,7 @@ fn classify(c: vec3<f32>, r: f32) -> i32 {
     let nz = head.grid_dims.z;
     if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(nx) && fy < f32(ny) && fz < f32(nz)) {
         let d = point_box_distance(c, head.aabb_min, head.aabb_max);
-        if d - head.margin > r {
+        if d - head.grid_slack - margin > r {
             return 1;
         }
         return 0;
@@ -95,7 +103,8 @@ fn classify(c: vec3<f32>, r: f32) -> i32 {
     let iy = min(u32(fy), ny - 1u);
     let iz = min(u32(fz), nz - 1u);
     let v = grid[(iz * ny + iy) * nx + ix];
-    let slack = abs(v) - head.margin - r;
+    let m = select(margin, 0.0, v < 0.0);
+    let slack = abs(v) - head.grid_slack - r - m;
     if slack <= 0.0 {
         return 0;
     }
@@ -111,9 +120,17 @@ fn classify(c: vec3<f32>, r: f32) -> i32 {
     return 0;
 }
 
-fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
+// Möller against the head, or, with a positive margin, closer than it:
+// one walk with boxes grown by tol + margin (cpu.rs `tri_crosses_head`).
+fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
     let tol = head.tol;
+    let grow = margin + tol;
     let plane = tri_plane(a, b, c, tol);
+    let lim = margin * margin * dot3(plane.n, plane.n);
+    let tmin = min(min(a, b), c);
+    let tmax = max(max(a, b), c);
+    let lo = vec3<f32>(tmin.x - grow, tmin.y - grow, tmin.z - grow);
+    let hi = vec3<f32>(tmax.x + grow, tmax.y + grow, tmax.z + grow);
     var stack: array<u32, STACK_SIZE>;
     var sp = 1u;
     stack[0] = 0u;
@@ -121,7 +138,7 @@ fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
     while sp > 0u && !hit {
         sp -= 1u;
         let node = head_nodes[stack[sp]];
-        if triangle_box_overlap(a, b, c, tol, node.min, node.max) {
+        if triangle_box_overlap(a, b, c, grow, node.min, node.max) {
             if is_leaf(node.packed) {
                 let first = leaf_first(node.packed);
                 let end = first + leaf_count(node.packed);
@@ -129,6 +146,15 @@ fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
                     let h = head_tris[t];
                     if tri_plane_overlaps(plane, a, b, c, h.v0, h.v1, h.v2, tol) {
                         hit = true;
+                    } else if MARGIN_TESTS {
+                        if margin > 0.0 && !plane_separates(plane.n, plane.d, lim, h.v0, h.v1, h.v2) {
+                            let hmin = min(min(h.v0, h.v1), h.v2);
+                            let hmax = max(max(h.v0, h.v1), h.v2);
+                            if boxes_overlap(lo, hi, hmin, hmax)
+                                && tri_tri_closer_than(a, b, c, h.v0, h.v1, h.v2, margin) {
+                                hit = true;
+                            }
+                        }
                     }
                 }
             } else {
@@ -198,15 +224,17 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
     let third = 1.0 / 3.0;
     let m = (a + b + c) * third;
     let r = max(max(len3(a - m), len3(b - m)), len3(c - m));
-    return HeadTri(a, b, c, classify(m, r));
+    return HeadTri(a, b, c, classify(m, r, q.margin));
 }
 
-// The exact half of cpu.rs `tri_hits`, for an undecided triangle.
-fn tri_hits_exact(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> bool {
-    if tri_crosses_head(a, b, c) {
+// The exact half of cpu.rs `tri_hits` (`tri_hits_exact`), for an undecided
+// triangle: crossing or within the margin, then containment. The two walks
+// of the head BVH run one after another, never nested.
+fn tri_hits_exact(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
+    if tri_crosses_head(a, b, c, margin) {
         return true;
     }
-    let cls_a = classify(a, 0.0);
+    let cls_a = classify(a, 0.0, 0.0);
     if cls_a != 0 {
         return cls_a < 0;
     }

@@ -38,7 +38,7 @@ struct HeadParams {
     aabb_min: vec3<f32>,
     tol: f32,
     aabb_max: vec3<f32>,
-    margin: f32,
+    grid_slack: f32,
     grid_origin: vec3<f32>,
     cell: f32,
     grid_dims: vec3<u32>,

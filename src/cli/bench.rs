@@ -23,6 +23,9 @@ pub struct BenchArgs {
     /// Tilted variants per chosen waypoint (15°, 30°, 45°, 60°, ...).
     #[arg(long, default_value_t = 3)]
     tilts: usize,
+    /// Safety margin of every query (mm): closer than this collides.
+    #[arg(long, default_value_t = 0.0)]
+    margin: f32,
     /// Also write the results as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
@@ -35,13 +38,22 @@ pub fn run(a: BenchArgs) -> Result<()> {
     }
     let loaded = a.scene.load()?;
     let scene = &loaded.scene;
-    let queries = tilted_queries(&scene.waypoint_queries, a.queries, a.tilts);
+    if !(a.margin.is_finite() && a.margin >= 0.0) {
+        return Err(
+            UsageError("--margin must be a finite, non-negative length (mm)".into()).into(),
+        );
+    }
+    let mut queries = tilted_queries(&scene.waypoint_queries, a.queries, a.tilts);
+    for q in &mut queries {
+        q.margin = a.margin;
+    }
     println!(
-        "{}: {} queries ({} waypoints sampled, {} tilts each), {} triangles, {} threads",
+        "{}: {} queries ({} waypoints sampled, {} tilts each, margin {} mm), {} triangles, {} threads",
         loaded.source,
         queries.len(),
         queries.len() / (a.tilts + 1),
         a.tilts,
+        a.margin,
         scene.triangle_count(),
         rayon::current_num_threads(),
     );
@@ -118,6 +130,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             &json!({
                 "source": loaded.source,
                 "queries": queries.len(),
+                "margin_mm": a.margin,
                 "threads": rayon::current_num_threads(),
                 "results": results,
             }),

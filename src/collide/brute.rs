@@ -1,23 +1,64 @@
 //! Brute force, the ground truth for tests: every existing part triangle
-//! against every head triangle with Möller's test, and containment by the
+//! against every head triangle with Möller's test, containment by the
 //! generalised winding number in `f64` (an algorithm independent of the
-//! backends' ray parity). Quadratic; only for small scenes.
+//! backends' ray parity), and, for a positive safety margin, the distance
+//! of every triangle pair in `f64` by a formulation of its own (below),
+//! independent of the backends' `f32` one. Quadratic; only for small
+//! scenes.
+//!
+//! Distance here: the triangles are moved into the head frame in `f64`;
+//! a pair's distance is the smallest of the vertex-to-face distances whose
+//! projection lands inside the face (barycentric signs), the 9 edge-to-edge
+//! distances (the interior critical point of the two segment parameters
+//! when it lies in the unit square, else the four endpoint-to-segment
+//! distances with clamped parameters), and 0 when an edge strictly crosses
+//! the other triangle's plane inside it.
 
 use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::tri_tri::tri_tri_overlap;
-use crate::geometry::{Aabb, Mesh, V3};
+use crate::geometry::{Aabb, Mesh, Pose, V3};
 use crate::scene::Scene;
 use rayon::prelude::*;
+
+/// A point or vector in `f64`.
+pub type D3 = [f64; 3];
+
+/// A triangle in `f64` with its bounding box.
+#[derive(Clone, Copy, Debug)]
+struct Tri64 {
+    v: [D3; 3],
+    min: D3,
+    max: D3,
+}
+
+impl Tri64 {
+    fn new(v: [D3; 3]) -> Tri64 {
+        let min = std::array::from_fn(|k| v[0][k].min(v[1][k]).min(v[2][k]));
+        let max = std::array::from_fn(|k| v[0][k].max(v[1][k]).max(v[2][k]));
+        Tri64 { v, min, max }
+    }
+
+    /// Boxes closer than `gap` on every axis.
+    fn boxes_within(&self, o: &Tri64, gap: f64) -> bool {
+        (0..3).all(|k| self.min[k] <= o.max[k] + gap && o.min[k] <= self.max[k] + gap)
+    }
+}
 
 /// The brute-force evaluator.
 pub struct BruteBackend<'a> {
     scene: &'a Scene,
+    /// Head triangles in `f64` (head frame).
+    head64: Vec<Tri64>,
 }
 
 impl<'a> BruteBackend<'a> {
     /// Over `scene`.
     pub fn new(scene: &'a Scene) -> Self {
-        BruteBackend { scene }
+        let head = &scene.head.mesh;
+        let head64 = (0..head.triangles.len())
+            .map(|i| Tri64::new(head.corners(i).map(to64)))
+            .collect();
+        BruteBackend { scene, head64 }
     }
 
     fn hits(&self, q: &Query) -> bool {
@@ -25,6 +66,15 @@ impl<'a> BruteBackend<'a> {
         let hb = Aabb::from_points(&head.vertices);
         let tol = self.scene.tol;
         let pose = &q.pose;
+        let margin = q.margin as f64;
+        // Exact pruning only: a triangle whose box misses the head's box
+        // grown by the margin (and the tolerance) can neither cross, nor be
+        // inside, nor come within the margin.
+        let grow = q.margin + 2.0 * tol;
+        let grown = Aabb {
+            min: hb.min.map(|x| x - grow),
+            max: hb.max.map(|x| x + grow),
+        };
         self.scene
             .part_tris
             .iter()
@@ -33,21 +83,53 @@ impl<'a> BruteBackend<'a> {
                 let a = pose.to_head(t.v0);
                 let b = pose.to_head(t.v1);
                 let c = pose.to_head(t.v2);
-                // Exact pruning only: a triangle whose box misses the head's
-                // box (grown by the tolerance) can neither cross nor be inside.
                 let tb = Aabb::from_points(&[a, b, c]);
-                let grown = Aabb {
-                    min: hb.min.map(|x| x - 2.0 * tol),
-                    max: hb.max.map(|x| x + 2.0 * tol),
-                };
                 if !tb.overlaps(&grown) {
                     return false;
                 }
-                (0..head.triangles.len()).any(|i| {
+                let crossing_or_inside = (0..head.triangles.len()).any(|i| {
                     let [h0, h1, h2] = head.corners(i);
                     tri_tri_overlap(a, b, c, h0, h1, h2, tol)
-                }) || winding_number(head, a) > 0.5
+                }) || winding_number(head, a) > 0.5;
+                crossing_or_inside
+                    || (margin > 0.0
+                        && self.triangle_distance(pose, t.v0, t.v1, t.v2, margin) < margin)
             })
+    }
+
+    /// Distance (f64) from the part triangle `(v0, v1, v2)` (part frame)
+    /// to the head's surface at `pose`, or `cap` when nothing is closer.
+    fn triangle_distance(&self, pose: &Pose, v0: V3, v1: V3, v2: V3, cap: f64) -> f64 {
+        let t = Tri64::new([v0, v1, v2].map(|p| to_head64(pose, p)));
+        self.head64
+            .iter()
+            .filter(|h| t.boxes_within(h, cap))
+            .map(|h| tri_tri_distance64(&t.v, &h.v))
+            .fold(cap, f64::min)
+    }
+
+    /// Distance (f64) between the head's surface at `q.pose` and the
+    /// nearest existing part triangle (`stamp < q.cutoff`), or `cap` when
+    /// nothing is closer than `cap`. Triangles inside the head count by
+    /// their distance to its surface. Tests use it to judge whether a
+    /// disagreement between backends is a near-contact.
+    pub fn surface_distance(&self, q: &Query, cap: f64) -> f64 {
+        let hb = Aabb::from_points(&self.scene.head.mesh.vertices);
+        let grow = cap as f32 + 2.0 * self.scene.tol;
+        let grown = Aabb {
+            min: hb.min.map(|x| x - grow),
+            max: hb.max.map(|x| x + grow),
+        };
+        self.scene
+            .part_tris
+            .par_iter()
+            .filter(|t| t.stamp < q.cutoff)
+            .filter(|t| {
+                let tb = Aabb::from_points(&[t.v0, t.v1, t.v2].map(|p| q.pose.to_head(p)));
+                tb.overlaps(&grown)
+            })
+            .map(|t| self.triangle_distance(&q.pose, t.v0, t.v1, t.v2, cap))
+            .reduce(|| cap, f64::min)
     }
 }
 
@@ -60,6 +142,134 @@ impl Backend for BruteBackend<'_> {
         check_finite(queries)?;
         Ok(queries.par_iter().map(|q| self.hits(q)).collect())
     }
+}
+
+fn to64(v: V3) -> D3 {
+    v.map(|c| c as f64)
+}
+
+/// Part frame → head frame in `f64`: `Rᵀ (p − tip)`.
+fn to_head64(pose: &Pose, p: V3) -> D3 {
+    let d: D3 = std::array::from_fn(|k| p[k] as f64 - pose.tip[k] as f64);
+    std::array::from_fn(|i| dot64(to64(pose.cols[i]), d))
+}
+
+fn sub64(a: D3, b: D3) -> D3 {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn dot64(a: D3, b: D3) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross64(a: D3, b: D3) -> D3 {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn lerp64(a: D3, b: D3, s: f64) -> D3 {
+    std::array::from_fn(|k| a[k] + (b[k] - a[k]) * s)
+}
+
+fn dist64(a: D3, b: D3) -> f64 {
+    let d = sub64(a, b);
+    dot64(d, d).sqrt()
+}
+
+/// Distance between two triangles in `f64` (0 when they touch or cross),
+/// by vertex projections, clamped segment parameters and edge piercings.
+pub fn tri_tri_distance64(s: &[D3; 3], t: &[D3; 3]) -> f64 {
+    let mut best = f64::INFINITY;
+    for (x, y) in [(s, t), (t, s)] {
+        for i in 0..3 {
+            // Vertex over the other face.
+            if let Some(d) = face_distance(x[i], y) {
+                best = best.min(d);
+            }
+            // Edge piercing the other face.
+            if let Some(d) = piercing(x[i], x[(i + 1) % 3], y) {
+                best = best.min(d);
+            }
+        }
+    }
+    for i in 0..3 {
+        for j in 0..3 {
+            best = best.min(segment_distance64(
+                s[i],
+                s[(i + 1) % 3],
+                t[j],
+                t[(j + 1) % 3],
+            ));
+        }
+    }
+    best
+}
+
+/// Distance from `p` to the plane of `t` when its projection lies inside
+/// `t` (barycentric signs), else `None` (an edge is then closer).
+fn face_distance(p: D3, t: &[D3; 3]) -> Option<f64> {
+    let n = cross64(sub64(t[1], t[0]), sub64(t[2], t[0]));
+    let nn = dot64(n, n);
+    if nn == 0.0 {
+        return None;
+    }
+    let inside = (0..3).all(|k| {
+        let e = cross64(sub64(t[(k + 1) % 3], t[k]), sub64(p, t[k]));
+        dot64(e, n) >= 0.0
+    });
+    inside.then(|| dot64(n, sub64(p, t[0])).abs() / nn.sqrt())
+}
+
+/// 0 when segment `(a, b)` strictly crosses the plane of `t` at a point
+/// inside `t`, else `None`.
+fn piercing(a: D3, b: D3, t: &[D3; 3]) -> Option<f64> {
+    let n = cross64(sub64(t[1], t[0]), sub64(t[2], t[0]));
+    let sa = dot64(n, sub64(a, t[0]));
+    let sb = dot64(n, sub64(b, t[0]));
+    if !((sa > 0.0 && sb < 0.0) || (sa < 0.0 && sb > 0.0)) {
+        return None;
+    }
+    face_distance(lerp64(a, b, sa / (sa - sb)), t)
+}
+
+/// Distance between segments `(p0, p1)` and `(q0, q1)`: the interior
+/// critical point of `|p(s) − q(t)|²` when it lies in the unit square, and
+/// the four boundary minima (each endpoint against the other segment, its
+/// parameter clamped).
+pub fn segment_distance64(p0: D3, p1: D3, q0: D3, q1: D3) -> f64 {
+    let u = sub64(p1, p0);
+    let v = sub64(q1, q0);
+    let w = sub64(p0, q0);
+    let (a, b, c) = (dot64(u, u), dot64(u, v), dot64(v, v));
+    let (d, e) = (dot64(u, w), dot64(v, w));
+    let mut best = point_segment64(p0, q0, q1)
+        .min(point_segment64(p1, q0, q1))
+        .min(point_segment64(q0, p0, p1))
+        .min(point_segment64(q1, p0, p1));
+    let det = a * c - b * b;
+    if det > 1e-12 * a * c {
+        let s = (b * e - c * d) / det;
+        let t = (a * e - b * d) / det;
+        if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
+            best = best.min(dist64(lerp64(p0, p1, s), lerp64(q0, q1, t)));
+        }
+    }
+    best
+}
+
+/// Distance from `p` to segment `(a, b)`, the parameter clamped to [0, 1].
+fn point_segment64(p: D3, a: D3, b: D3) -> f64 {
+    let ab = sub64(b, a);
+    let l = dot64(ab, ab);
+    let s = if l > 0.0 {
+        (dot64(sub64(p, a), ab) / l).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    dist64(p, lerp64(a, b, s))
 }
 
 /// Generalised winding number of a closed mesh at `p` (≈1 inside, ≈0
@@ -82,4 +292,41 @@ pub fn winding_number(mesh: &Mesh, p: V3) -> f64 {
         total += 2.0 * det.atan2(den);
     }
     total / (4.0 * std::f64::consts::PI)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::tri_tri_distance::tri_tri_distance;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// The two independent formulations (this f64 one and the backends'
+    /// f32 one) agree on random pairs, crossing ones included.
+    #[test]
+    fn f64_distance_matches_the_f32_one() {
+        let mut r = ChaCha8Rng::seed_from_u64(5);
+        for i in 0..2000 {
+            let tri = |r: &mut ChaCha8Rng, c: f32, s: f32| -> [V3; 3] {
+                std::array::from_fn(|_| std::array::from_fn(|_| c + r.random_range(-s..s)))
+            };
+            let s = tri(&mut r, 0.0, 1.0);
+            let (c, size) = (r.random_range(0.0..2.0), r.random_range(0.1..1.5));
+            let t = tri(&mut r, c, size);
+            let want = tri_tri_distance(s[0], s[1], s[2], t[0], t[1], t[2]) as f64;
+            let got = tri_tri_distance64(&s.map(to64), &t.map(to64));
+            assert!(
+                (got - want).abs() < 1e-5,
+                "pair {i}: f64 {got} vs f32 {want}: {s:?} {t:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn segments_parallel_and_skew() {
+        let d = segment_distance64([0.0; 3], [2.0, 0.0, 0.0], [1.0, 0.5, 0.0], [3.0, 0.5, 0.0]);
+        assert!((d - 0.5).abs() < 1e-12);
+        let d = segment_distance64([0.0; 3], [2.0, 0.0, 0.0], [1.0, -1.0, 1.0], [1.0, 1.0, 1.0]);
+        assert!((d - 1.0).abs() < 1e-12);
+    }
 }

@@ -1,8 +1,9 @@
 //! Collision evaluators: one trait, several backends that must agree.
 //!
-//! A backend takes a batch of [`Query`]s (head pose + cutoff stamp) and
-//! answers, per query, whether the head touches the platform or any part
-//! triangle with `stamp < cutoff` (crossing or contained; DESIGN.md).
+//! A backend takes a batch of [`Query`]s (head pose, cutoff stamp, safety
+//! margin) and answers, per query, whether the platform or any part
+//! triangle with `stamp < cutoff` crosses the head, lies inside it, or
+//! comes closer to its surface than the query's margin (DESIGN.md).
 
 pub mod brute;
 pub mod cpu;
@@ -18,6 +19,9 @@ pub enum CollideError {
     /// A query's pose has a NaN or infinite component.
     #[error("query {0} has a non-finite pose")]
     NonFinite(usize),
+    /// A query's safety margin is negative or not finite.
+    #[error("query {0} has a negative or non-finite safety margin")]
+    BadMargin(usize),
     /// The chosen backend cannot run here.
     #[error("{0}")]
     Unavailable(String),
@@ -31,7 +35,8 @@ pub trait Backend: Sync {
     fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError>;
 }
 
-/// Reject non-finite poses before any backend sees them.
+/// Reject non-finite poses and negative or non-finite margins before any
+/// backend sees them.
 pub fn check_finite(queries: &[Query]) -> Result<(), CollideError> {
     for (i, q) in queries.iter().enumerate() {
         let p = &q.pose;
@@ -42,6 +47,9 @@ pub fn check_finite(queries: &[Query]) -> Result<(), CollideError> {
             .all(|c| c.is_finite());
         if !finite {
             return Err(CollideError::NonFinite(i));
+        }
+        if !(q.margin.is_finite() && q.margin >= 0.0) {
+            return Err(CollideError::BadMargin(i));
         }
     }
     Ok(())

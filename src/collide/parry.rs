@@ -14,6 +14,12 @@
 //!   chunk's BVH yields the triangles under the head's box and each existing
 //!   one is tested with `intersection_test` (triangle vs head mesh) and,
 //!   failing that, one vertex with `contains_point`.
+//! - The safety margin is parry's answer too: with a positive margin the
+//!   crossing test becomes `closest_points` with `max_dist = margin`
+//!   (`Intersecting` or `WithinMargin` collide; GJK on the triangle pairs
+//!   its BVH cannot rule out), on the same whole groups and chunk
+//!   triangles, and the boxes used for culling are grown by the margin.
+//!   Containment is unchanged.
 //!
 //! Rayon parallelises over the batch.
 
@@ -22,7 +28,8 @@ use crate::geometry::Mesh;
 use crate::scene::Scene;
 use parry3d::bounding_volume::{Aabb, BoundingVolume};
 use parry3d::math::{Matrix, Pose, Rotation, Vector};
-use parry3d::query::{intersection_test, PointQuery};
+use parry3d::query::{closest_points, intersection_test, ClosestPoints, PointQuery};
+use parry3d::shape::Shape;
 use parry3d::shape::{TriMesh, TriMeshFlags};
 use rayon::prelude::*;
 
@@ -37,6 +44,18 @@ struct Group {
     aabb: Aabb,
     /// One vertex per connected component.
     representatives: Vec<Vector>,
+}
+
+/// One query as the group tests see it.
+struct Near {
+    /// The head's pose in the part frame.
+    pose: Pose,
+    /// The head's box (part frame).
+    head_aabb: Aabb,
+    /// The head's box grown by the margin.
+    reach: Aabb,
+    cutoff: u32,
+    margin: f32,
 }
 
 /// The `parry` backend.
@@ -138,40 +157,55 @@ impl ParryBackend {
         let rot = Rotation::from_mat3(&Matrix::from_cols(vector(c[0]), vector(c[1]), vector(c[2])));
         let pose = Pose::from_parts(vector(q.pose.tip), rot);
         let head_aabb = self.head.aabb(&pose);
-        self.groups
-            .iter()
-            .any(|g| self.group_hits(g, &pose, &head_aabb, q.cutoff))
+        let near = Near {
+            pose,
+            head_aabb,
+            // Everything within the margin of the head lies in its box
+            // grown by the margin.
+            reach: head_aabb.loosened(q.margin),
+            cutoff: q.cutoff,
+            margin: q.margin,
+        };
+        self.groups.iter().any(|g| self.group_hits(g, &near))
     }
 
-    fn group_hits(&self, g: &Group, pose: &Pose, head_aabb: &Aabb, cutoff: u32) -> bool {
-        if g.min_stamp >= cutoff || !g.aabb.intersects(head_aabb) {
+    /// Does `shape` (part frame) cross the head, or, with a positive
+    /// margin, come within the margin of it? Parry's own answer: the
+    /// margin goes to its `closest_points` as `max_dist`.
+    fn crosses_or_near(&self, near: &Near, shape: &dyn Shape) -> bool {
+        let identity = Pose::identity();
+        if near.margin > 0.0 {
+            closest_points(&near.pose, &self.head, &identity, shape, near.margin)
+                .map(|r| !matches!(r, ClosestPoints::Disjoint))
+                .unwrap_or(true)
+        } else {
+            intersection_test(&near.pose, &self.head, &identity, shape)
+                .map(|r| r.intersecting)
+                .unwrap_or(true)
+        }
+    }
+
+    fn contains(&self, near: &Near, p: Vector) -> bool {
+        near.head_aabb.contains_local_point(p) && self.head.contains_point(&near.pose, p)
+    }
+
+    fn group_hits(&self, g: &Group, near: &Near) -> bool {
+        if g.min_stamp >= near.cutoff || !g.aabb.intersects(&near.reach) {
             return false;
         }
-        let identity = Pose::identity();
-        if g.max_stamp < cutoff {
-            let crossing = intersection_test(pose, &self.head, &identity, &g.mesh)
-                .map(|r| r.intersecting)
-                .unwrap_or(true);
-            return crossing
-                || g.representatives.iter().any(|r| {
-                    head_aabb.contains_local_point(*r) && self.head.contains_point(pose, *r)
-                });
+        if g.max_stamp < near.cutoff {
+            return self.crosses_or_near(near, &g.mesh)
+                || g.representatives.iter().any(|r| self.contains(near, *r));
         }
         if !g.chunks.is_empty() {
-            return g
-                .chunks
-                .iter()
-                .any(|c| self.group_hits(c, pose, head_aabb, cutoff));
+            return g.chunks.iter().any(|c| self.group_hits(c, near));
         }
-        g.mesh.bvh().intersect_aabb(head_aabb).any(|id| {
-            if g.stamps[id as usize] >= cutoff {
+        g.mesh.bvh().intersect_aabb(&near.reach).any(|id| {
+            if g.stamps[id as usize] >= near.cutoff {
                 return false;
             }
             let tri = g.mesh.triangle(id);
-            intersection_test(pose, &self.head, &identity, &tri)
-                .map(|r| r.intersecting)
-                .unwrap_or(true)
-                || (head_aabb.contains_local_point(tri.a) && self.head.contains_point(pose, tri.a))
+            self.crosses_or_near(near, &tri) || self.contains(near, tri.a)
         })
     }
 }

@@ -11,6 +11,7 @@ pub mod point_in_mesh;
 pub mod point_triangle_distance;
 pub mod pose;
 pub mod tri_tri;
+pub mod tri_tri_distance;
 
 pub use aabb::Aabb;
 pub use mesh::Mesh;

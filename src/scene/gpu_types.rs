@@ -122,8 +122,9 @@ pub struct GpuHeadParams {
     pub tol: f32,
     /// Head bounding box upper corner.
     pub aabb_max: [f32; 3],
-    /// Conservative margin on distance bounds (mm).
-    pub margin: f32,
+    /// Conservative slack on the grid's distance bounds (mm), covering
+    /// rounding; not the query's safety margin ([`GpuQuery::margin`]).
+    pub grid_slack: f32,
     /// Distance grid origin (corner of cell 0).
     pub grid_origin: [f32; 3],
     /// Grid cell size (mm).

@@ -10,7 +10,9 @@
 //! enclosing cell of a 4× coarser grid and `s` the distance between the two
 //! centres. For any point `p` in the cell, `|v| − |p − centre|` bounds the
 //! distance from `p` to the surface, so a sphere of radius `r` around `p`
-//! with `|v| − |p − centre| > r + margin` lies wholly on `v`'s side.
+//! with `|v| − |p − centre| > r + grid_slack` lies wholly on `v`'s side
+//! (`grid_slack` covers rounding); wholly outside *and* more than a query's
+//! safety margin away when the bound exceeds `r + grid_slack + margin`.
 
 use super::bvh::{self, StampedBvh};
 use super::gpu_types::{GpuHeadParams, GpuNode, GpuTriangle};
@@ -112,7 +114,7 @@ impl Head {
             aabb_min: aabb.min,
             tol,
             aabb_max: aabb.max,
-            margin: 2.0 * tol,
+            grid_slack: 2.0 * tol,
             grid_origin: origin,
             cell,
             grid_dims: dims,

@@ -1,12 +1,12 @@
-//! Shared helpers for integration tests: random scenes and a near-contact
-//! measure for judging disagreements.
+//! Shared helpers for integration tests: random scenes, the margins to
+//! sweep, and a near-contact measure (brute force's f64 distance) for
+//! judging disagreements.
 #![allow(dead_code)]
 
+use maamplan::collide::brute::BruteBackend;
 use maamplan::geometry::{Mesh, Pose, V3};
 use maamplan::scene::{Query, Scene};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
-use parry3d::math::{Matrix, Pose as PPose, Rotation, Vector};
-use parry3d::shape::TriMesh;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -131,47 +131,31 @@ pub fn random_queries(rng: &mut ChaCha8Rng, scene: &Scene, count: usize) -> Vec<
         .collect()
 }
 
-/// Distance between the head at `q` and the existing part triangles
-/// (surfaces only), by parry — how "near" a contact is.
-pub fn surface_distance(scene: &Scene, q: &Query) -> f32 {
-    let tris: Vec<&maamplan::scene::GpuTriangle> = scene
-        .part_tris
-        .iter()
-        .filter(|t| t.stamp < q.cutoff)
-        .collect();
-    if tris.is_empty() {
-        return f32::INFINITY;
-    }
-    let v = |p: V3| Vector::new(p[0], p[1], p[2]);
-    let verts: Vec<Vector> = tris
-        .iter()
-        .flat_map(|t| [v(t.v0), v(t.v1), v(t.v2)])
-        .collect();
-    let idx: Vec<[u32; 3]> = (0..tris.len() as u32)
-        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
-        .collect();
-    let part = TriMesh::new(verts, idx).expect("part mesh");
-    let h = &scene.head.mesh;
-    let head = TriMesh::new(
-        h.vertices.iter().map(|p| v(*p)).collect(),
-        h.triangles.clone(),
-    )
-    .expect("head mesh");
-    let c = &q.pose.cols;
-    let rot = Rotation::from_mat3(&Matrix::from_cols(v(c[0]), v(c[1]), v(c[2])));
-    let pose = PPose::from_parts(v(q.pose.tip), rot);
-    parry3d::query::distance(&pose, &head, &PPose::identity(), &part)
-        .expect("distance")
-        .distance
+/// Distance between the head's surface at `q` and the nearest existing
+/// part triangle, by brute force in f64 (`BruteBackend::surface_distance`),
+/// capped at `q.margin + 0.01` mm — how "near" a contact is.
+pub fn surface_distance(scene: &Scene, q: &Query) -> f64 {
+    BruteBackend::new(scene).surface_distance(q, q.margin as f64 + 0.01)
 }
+
+/// The same queries with safety margin `margin` (mm).
+pub fn with_margin(queries: &[Query], margin: f32) -> Vec<Query> {
+    queries.iter().map(|q| Query { margin, ..*q }).collect()
+}
+
+/// The safety margins the differential tests sweep (mm).
+pub const MARGINS: [f32; 4] = [0.0, 0.05, 0.3, 1.0];
 
 /// A pose with the head axis `axis` at `tip`.
 pub fn pose(tip: V3, axis: V3) -> Pose {
     Pose::from_axis(tip, axis)
 }
 
-/// Compare `got` with `truth`: every disagreement must be a near-contact
-/// (surfaces closer than 1e-3 mm), and is listed. Returns their count.
+/// Compare `got` with `truth`: every disagreement must be a near-contact —
+/// the distance `d` between the head's surface and the nearest existing
+/// triangle within 1e-3 mm of the query's margin (`|d − margin| < 1e-3`;
+/// for margin 0, surfaces closer than 1e-3 mm) — and is listed. Returns
+/// their count.
 pub fn near_contacts_only(
     scene: &Scene,
     queries: &[Query],
@@ -183,9 +167,10 @@ pub fn near_contacts_only(
     for (i, (t, g)) in truth.iter().zip(got).enumerate() {
         if t != g {
             let d = surface_distance(scene, &queries[i]);
+            let m = queries[i].margin as f64;
             assert!(
-                d < 1e-3,
-                "{what}: query {i} ({:?}): {g} vs {t}, surfaces {d} mm apart",
+                (d - m).abs() < 1e-3,
+                "{what}: query {i} ({:?}): {g} vs {t}, surfaces {d} mm apart, margin {m} mm",
                 queries[i]
             );
             near.push((i, d));
@@ -241,4 +226,155 @@ pub fn default_scene() -> (maamplan::default_job::Job, Scene) {
     )
     .unwrap();
     (job, scene)
+}
+
+/// A small scene whose verdicts only the safety margin decides, with its
+/// queries and the verdicts every backend must give.
+pub struct MarginCase {
+    /// What the case shows.
+    pub what: &'static str,
+    /// The scene (box head, no tip clearance).
+    pub scene: Scene,
+    /// The queries.
+    pub queries: Vec<Query>,
+    /// The verdict each query must get.
+    pub expected: Vec<bool>,
+}
+
+/// A one-layer toolpath whose surface is `surface`, printed from `at`.
+fn one_layer(surface: Mesh, at: V3) -> Toolpath {
+    Toolpath {
+        layers: vec![Layer {
+            name: "0".into(),
+            waypoints: vec![Waypoint {
+                pos: at,
+                dir: [0.0, 0.0, 1.0],
+            }],
+            surface: Some(surface),
+        }],
+    }
+}
+
+/// The two margin cases: a box head hovering 0.04 mm above a flat square
+/// (face to face), and a triangle whose only close approach to the box
+/// head is edge to edge (0.04 mm between skew edges; every vertex–face
+/// distance is over 0.7 mm and every edge–plane crossing over 0.05 mm).
+/// Both collide at margin 0.05 and are free at 0.03 and 0.
+pub fn margin_cases() -> Vec<MarginCase> {
+    use maamplan::default_job::box_mesh;
+    use maamplan::scene::{HeadConfig, SceneConfig};
+    let head = box_mesh([-2.0, -2.0, 0.0], [2.0, 2.0, 4.0]);
+    let platform = box_mesh([-50.0, -50.0, -50.0], [50.0, 50.0, -49.0]);
+    let cfg = |max_edge: Option<f32>| SceneConfig {
+        head: HeadConfig {
+            tip_clearance: 0.0,
+            grid_resolution: 48,
+        },
+        max_edge,
+    };
+    let at = |tip: V3, margin: f32| Query {
+        pose: pose(tip, [0.0, 0.0, 1.0]),
+        cutoff: 2,
+        margin,
+    };
+    let mut cases = Vec::new();
+
+    // The head's bottom face 0.04 mm above the square at z = 1.
+    let square = Mesh {
+        vertices: vec![
+            [-1.0, -1.0, 1.0],
+            [1.0, -1.0, 1.0],
+            [1.0, 1.0, 1.0],
+            [-1.0, 1.0, 1.0],
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    };
+    let tp = one_layer(square, [0.0, 0.0, 1.0]);
+    let scene = Scene::build(&tp, &head, &platform, &cfg(None)).unwrap();
+    let hover = [0.0, 0.0, 1.04];
+    cases.push(MarginCase {
+        what: "head 0.04 mm above a square",
+        scene,
+        queries: vec![
+            at(hover, 0.05),
+            at(hover, 0.03),
+            at(hover, 0.0),
+            at(hover, 1.0),
+            // Sideways and up: 0.3 mm edge to edge, diagonally.
+            at(
+                [3.0 + 0.3 / 2f32.sqrt(), 0.0, 1.0 + 0.3 / 2f32.sqrt()],
+                0.29,
+            ),
+            at(
+                [3.0 + 0.3 / 2f32.sqrt(), 0.0, 1.0 + 0.3 / 2f32.sqrt()],
+                0.31,
+            ),
+        ],
+        expected: vec![true, false, false, true, false, true],
+    });
+
+    // Skew edges: the head's edge x = 2, z = 4 and the triangle's edge AB,
+    // 0.04 mm apart at (2, 0, 4) along (1, 0, 1)/√2. Not subdivided, so the
+    // closest points stay inside the two edges.
+    let s = std::f32::consts::FRAC_1_SQRT_2;
+    let p = [2.0 + 0.04 * s, 0.0, 4.0 + 0.04 * s];
+    let a = [p[0] + s, 0.0, p[2] - s];
+    let b = [p[0] - s, 0.0, p[2] + s];
+    let c = [
+        p[0] + std::f32::consts::SQRT_2,
+        3.0,
+        p[2] + std::f32::consts::SQRT_2,
+    ];
+    let tri = Mesh {
+        vertices: vec![a, b, c],
+        triangles: vec![[0, 1, 2]],
+    };
+    let tp = one_layer(tri, c);
+    let scene = Scene::build(&tp, &head, &platform, &cfg(Some(1000.0))).unwrap();
+    let origin = [0.0, 0.0, 0.0];
+    cases.push(MarginCase {
+        what: "edge to edge, 0.04 mm",
+        scene,
+        queries: vec![at(origin, 0.05), at(origin, 0.03), at(origin, 0.0)],
+        expected: vec![true, false, false],
+    });
+    cases
+}
+
+/// Queries straddling each free pose's own distance: for every query of
+/// `base` that is free at margin 0 with the head's surface `d < cap` mm
+/// from the nearest existing triangle (brute force, f64), the same pose at
+/// margin `d + 2e-3` (must collide) and, when `d > 2e-3`, at `d − 2e-3`
+/// (must stay free). 2e-3 mm is twice the near-contact allowance, so every
+/// backend must give exactly these verdicts. Returns the queries and the
+/// verdicts they must get.
+pub fn margin_boundary_queries(scene: &Scene, base: &[Query], cap: f32) -> (Vec<Query>, Vec<bool>) {
+    use maamplan::collide::Backend;
+    let base = with_margin(base, 0.0);
+    let brute = BruteBackend::new(scene);
+    let free = brute.evaluate(&base).unwrap();
+    let mut queries = Vec::new();
+    let mut expected = Vec::new();
+    for (q, hit) in base.iter().zip(free) {
+        if hit {
+            continue;
+        }
+        let d = brute.surface_distance(q, cap as f64) as f32;
+        if d >= cap {
+            continue;
+        }
+        queries.push(Query {
+            margin: d + 2e-3,
+            ..*q
+        });
+        expected.push(true);
+        if d > 2e-3 {
+            queries.push(Query {
+                margin: d - 2e-3,
+                ..*q
+            });
+            expected.push(false);
+        }
+    }
+    (queries, expected)
 }

@@ -4,9 +4,14 @@
 //! three dispatches in one submission — `collide_traverse` (per query: BVH
 //! walk, grid culling, undecided pairs appended to a candidate list),
 //! `collide_prepare` (indirect dispatch size) and `collide_exact` (per
-//! candidate: Möller and containment). Two sets of per-batch buffers
-//! alternate, so the next batch computes while the previous one is read
-//! back. A batch whose candidates overflow the list is redone in halves.
+//! candidate: Möller, the safety margin's distance tests, containment).
+//! `collide_exact` is built twice: with the margin's tests and without them
+//! (the `MARGIN_TESTS` override), the latter for batches whose queries all
+//! have margin 0, so those cost what they did before margins existed on
+//! lavapipe too (it runs a branch's body even when no invocation takes
+//! it). Two sets of per-batch buffers alternate, so the next batch
+//! computes while the previous one is read back. A batch whose candidates
+//! overflow the list is redone in halves.
 
 use super::super::{check_finite, Backend, CollideError, Query};
 use super::context::GpuContext;
@@ -60,7 +65,10 @@ pub struct GpuBackend {
     ctx: GpuContext,
     traverse: wgpu::ComputePipeline,
     prepare: wgpu::ComputePipeline,
+    /// `collide_exact` with the margin's distance tests.
     exact: wgpu::ComputePipeline,
+    /// `collide_exact` without them, for batches at margin 0.
+    exact_touch: wgpu::ComputePipeline,
     sets: [BatchSet; 2],
     batch: usize,
     capacity: u32,
@@ -172,7 +180,7 @@ impl GpuBackend {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let pipeline = |label: &str, src: &str| {
+        let pipeline = |label: &str, src: &str, constants: &[(&str, f64)]| {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(src.into()),
@@ -182,13 +190,25 @@ impl GpuBackend {
                 layout: Some(&pipeline_layout),
                 module: &module,
                 entry_point: Some("main"),
-                compilation_options: Default::default(),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
                 cache: None,
             })
         };
-        let traverse = pipeline("collide_traverse.wgsl", COLLIDE_TRAVERSE);
-        let prepare = pipeline("collide_prepare.wgsl", COLLIDE_PREPARE);
-        let exact = pipeline("collide_exact.wgsl", COLLIDE_EXACT);
+        let traverse = pipeline("collide_traverse.wgsl", COLLIDE_TRAVERSE, &[]);
+        let prepare = pipeline("collide_prepare.wgsl", COLLIDE_PREPARE, &[]);
+        let exact = pipeline(
+            "collide_exact.wgsl",
+            COLLIDE_EXACT,
+            &[("MARGIN_TESTS", 1.0)],
+        );
+        let exact_touch = pipeline(
+            "collide_exact.wgsl (margin 0)",
+            COLLIDE_EXACT,
+            &[("MARGIN_TESTS", 0.0)],
+        );
 
         let query_size = std::mem::size_of::<GpuQuery>() as u64;
         let max_groups = limits.max_compute_workgroups_per_dimension as u64;
@@ -269,6 +289,7 @@ impl GpuBackend {
             traverse,
             prepare,
             exact,
+            exact_touch,
             sets,
             batch,
             capacity: capacity as u32,
@@ -328,7 +349,11 @@ impl GpuBackend {
                 timestamp_writes: None,
             });
             pass.set_bind_group(0, &set.bind_group, &[]);
-            pass.set_pipeline(&self.exact);
+            if batch.iter().any(|q| q.margin > 0.0) {
+                pass.set_pipeline(&self.exact);
+            } else {
+                pass.set_pipeline(&self.exact_touch);
+            }
             pass.dispatch_workgroups_indirect(&set.indirect, 0);
         }
         enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n * 4);

@@ -10,6 +10,8 @@ macro_rules! kernel {
             "\n",
             include_str!("../../../shaders/shared/tri_tri.wgsl"),
             "\n",
+            include_str!("../../../shaders/shared/tri_tri_distance.wgsl"),
+            "\n",
             include_str!("../../../shaders/shared/point_in_mesh.wgsl"),
             "\n",
             include_str!("../../../shaders/shared/collide_common.wgsl"),
