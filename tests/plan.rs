@@ -10,8 +10,6 @@ use maamplan::collide::Backend;
 use maamplan::io::gcode::{
     axes_of, parse_g1, parse_moves, rotary_motion, write_gcode, GcodeHeader,
 };
-use maamplan::io::Placement;
-use maamplan::job::{Job, JobSpec};
 use maamplan::kinematics::Machine;
 use maamplan::plan::program::MoveKind;
 use maamplan::plan::{plan, PlanOptions};
@@ -34,27 +32,9 @@ fn reference_gcode_rotary_motion() {
     assert!((max - 98.0).abs() < 1.0, "max step {max}");
 }
 
-/// simple_curve loaded the way the CLI loads it (the data set's
-/// conventions applied), with the data-set head and platform.
-fn simple_curve_job() -> Job {
-    let d = data();
-    Job::load(&JobSpec {
-        toolpath: Some(d.join("simple_curve")),
-        head: Some(d.join("extruderHead.obj")),
-        platform: Some(d.join("printingPlatform.obj")),
-        placement: Placement {
-            y_up: false,
-            offset: [0.0, 0.0, 40.5],
-        },
-        clearance: 0.3,
-        ..JobSpec::default()
-    })
-    .unwrap()
-}
-
 #[test]
 fn simple_curve_plan_meets_the_paper() {
-    let job = simple_curve_job();
+    let job = common::simple_curve_job();
     assert!(
         job.flipped_layers.is_empty(),
         "no simple_curve layer points down"

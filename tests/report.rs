@@ -253,7 +253,7 @@ fn failures_leave_nothing_behind() {
     // Usage errors: no output folder; a bad option value.
     let (code, err) = run(&["plan", "--backend", "cpu"]);
     assert_eq!(code, Some(2));
-    assert!(err.contains("-o DIR"), "{err}");
+    assert!(err.contains("--out"), "{err}");
     let (code, _) = run(&["plan", "--backend", "cpu", "--alpha", "90", "-o", o]);
     assert_eq!(code, Some(2));
     // Unwritable output: a file where the folder should be.

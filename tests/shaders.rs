@@ -16,6 +16,27 @@ fn every_shader_validates() {
     }
 }
 
+/// Constants the host and the kernels share have one value.
+#[test]
+fn shared_constants_match_rust() {
+    let module = naga::front::wgsl::parse_str(COLLIDE_TRAVERSE).unwrap();
+    let value = |name: &str| -> u32 {
+        let (_, c) = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no constant {name}"));
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => v,
+            ref e => panic!("{name} is {e:?}"),
+        }
+    };
+    assert_eq!(
+        value("STACK_SIZE") as usize,
+        maamplan::scene::gpu_types::STACK_SIZE
+    );
+}
+
 #[test]
 fn struct_layouts_match_rust() {
     let module = naga::front::wgsl::parse_str(COLLIDE_TRAVERSE).unwrap();

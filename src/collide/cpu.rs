@@ -26,8 +26,7 @@ use crate::geometry::{dot, length, sub, vmax, vmin, V3};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
 
-/// Traversal stack depth; scene building rejects deeper BVHs.
-pub const STACK_SIZE: usize = 64;
+pub use crate::scene::gpu_types::STACK_SIZE;
 
 /// Borrowed views of the scene arrays, exactly what the shader binds.
 #[derive(Clone, Copy)]

@@ -2,9 +2,9 @@
 //! re-lays it out as [`GpuNode`]s whose `min_stamp` lets a query skip every
 //! subtree printed after its cutoff.
 
+use super::gpu_types::STACK_SIZE;
 use super::gpu_types::{GpuNode, GpuPartNode, GpuTriangle, MAX_LEAF_TRIS, MAX_TRIS};
 use super::SceneError;
-use crate::collide::cpu::STACK_SIZE;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;

@@ -69,6 +69,11 @@ impl GpuPartNode {
     }
 }
 
+/// Depth of the fixed traversal stacks of the evaluators (cpu and WGSL,
+/// `STACK_SIZE` in `shaders/shared/collide_common.wgsl`); scene building
+/// rejects deeper BVHs.
+pub const STACK_SIZE: usize = 64;
+
 /// Leaf flag in [`GpuNode::packed`].
 pub const LEAF_BIT: u32 = 0x8000_0000;
 /// Largest triangle count one leaf can hold.

@@ -193,26 +193,29 @@ pub fn data() -> std::path::PathBuf {
     d
 }
 
-/// simple_curve with the data-set head and platform, placed as the original
-/// software did (z + 40.5 mm): its toolpath and scene.
-pub fn simple_curve() -> (Toolpath, Scene) {
-    use maamplan::io::{mesh::load_mesh, toolpath::load_toolpath, Placement};
+/// simple_curve loaded as the CLI loads it (the data set's conventions
+/// applied), with the data-set head and platform, placed as the original
+/// software did (z + 40.5 mm).
+pub fn simple_curve_job() -> maamplan::job::Job {
     let d = data();
-    let place = Placement {
-        y_up: false,
-        offset: [0.0, 0.0, 40.5],
-    };
-    let tp = load_toolpath(&d.join("simple_curve"), &place).unwrap();
-    let head = load_mesh(&d.join("extruderHead.obj")).unwrap();
-    let platform = load_mesh(&d.join("printingPlatform.obj")).unwrap();
-    let scene = Scene::build(
-        &tp,
-        &head,
-        &platform,
-        &maamplan::scene::SceneConfig::default(),
-    )
-    .unwrap();
-    (tp, scene)
+    maamplan::job::Job::load(&maamplan::job::JobSpec {
+        toolpath: Some(d.join("simple_curve")),
+        head: Some(d.join("extruderHead.obj")),
+        platform: Some(d.join("printingPlatform.obj")),
+        placement: maamplan::io::Placement {
+            y_up: false,
+            offset: [0.0, 0.0, 40.5],
+        },
+        clearance: 0.3,
+        ..Default::default()
+    })
+    .unwrap()
+}
+
+/// simple_curve's toolpath and scene ([`simple_curve_job`]).
+pub fn simple_curve() -> (Toolpath, Scene) {
+    let job = simple_curve_job();
+    (job.toolpath, job.scene)
 }
 
 /// The embedded default job and its scene.
