@@ -465,6 +465,12 @@ impl<'a> State<'a> {
         let hits = prover.poses(&queries)?;
         let mut free = vec![Vec::new(); items.len()];
         for ((&k, h), q) in owner.iter().zip(hits).zip(&queries) {
+            if self.symmetric {
+                // The mirror is the same head geometry: the same verdict.
+                for a in &cand[k][1..] {
+                    prover.same_as(a, q.1, &q.0);
+                }
+            }
             if !h {
                 if self.symmetric {
                     free[k].extend(cand[k].iter().copied());

@@ -245,9 +245,30 @@ impl<'a> Prover<'a> {
     }
 
     /// Do the poses `(axes, cutoff)` come within the pose margin of
-    /// existing material? One verdict each.
+    /// existing material? One verdict each. Each pose is first asked with
+    /// the margin a move's first sample needs (`margin + step / 2`), so
+    /// that the moves into and out of it start proven at their ends; only
+    /// poses that fail that are asked again at the pose margin.
     pub fn poses(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
-        self.poses_at(items, self.pose_margin())
+        let wide = self.poses_at(items, self.margin + 0.5 * self.step)?;
+        let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
+        let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
+        let hits = self.poses_at(&again, self.pose_margin())?;
+        let mut out = vec![false; items.len()];
+        for (&i, h) in near.iter().zip(hits) {
+            out[i] = h;
+        }
+        Ok(out)
+    }
+
+    /// Record that the pose `(a, cutoff)` has the verdict of a pose it is
+    /// congruent to (the same head geometry turned by a symmetry) at the
+    /// pose margin.
+    pub fn same_as(&self, a: &Axes, cutoff: u32, like: &Axes) {
+        let mut known = self.known.lock().expect("prover cache");
+        if let Some(k) = known.get(&pose_key(like, cutoff)).copied() {
+            known.insert(pose_key(a, cutoff), k);
+        }
     }
 
     /// Do the poses `(axes, cutoff)` come within `margin` of existing
@@ -353,23 +374,37 @@ impl<'a> Prover<'a> {
             .par_iter()
             .map(|mv| displacement_bound(self.machine, &mv.from, &mv.to, self.reach))
             .collect();
-        // Initial samples: intervals no longer than `step`.
-        let mut samples: Vec<Vec<Sample>> = bounds
-            .iter()
-            .map(|&d| {
-                // Long moves (travels) start coarser: at most 64 samples,
-                // each checked with a margin grown by half their spacing,
-                // refined only where material is near.
-                let n = ((d / self.step).ceil() as usize).clamp(1, 64);
-                (0..=n)
-                    .map(|k| Sample {
-                        t: k as f64 / n as f64,
-                        free: f64::NEG_INFINITY,
-                        hit: f64::INFINITY,
-                    })
-                    .collect()
-            })
-            .collect();
+        // Initial samples: intervals no longer than `step`. The ends start
+        // with what is known of them as poses (a pose free with more
+        // material present is free with less).
+        let mut samples: Vec<Vec<Sample>> = {
+            let known = self.known.lock().expect("prover cache");
+            let at = |a: &Axes, cutoff: u32| {
+                let k = |c: u32| known.get(&pose_key(a, c)).map_or(f64::NEG_INFINITY, |s| s.free);
+                k(cutoff).max(k(cutoff + 1))
+            };
+            bounds
+                .iter()
+                .zip(moves)
+                .map(|(&d, mv)| {
+                    // Long moves (travels) start coarser: at most 64
+                    // samples, each checked with a margin grown by half
+                    // their spacing, refined only where material is near.
+                    let n = ((d / self.step).ceil() as usize).clamp(1, 64);
+                    (0..=n)
+                        .map(|k| Sample {
+                            t: k as f64 / n as f64,
+                            free: match k {
+                                0 => at(&mv.from, mv.cutoff),
+                                _ if k == n => at(&mv.to, mv.cutoff),
+                                _ => f64::NEG_INFINITY,
+                            },
+                            hit: f64::INFINITY,
+                        })
+                        .collect()
+                })
+                .collect()
+        };
         let mut verdict: Vec<Option<bool>> = vec![None; moves.len()];
         loop {
             // Per undecided move: the samples to query and at what margin,
