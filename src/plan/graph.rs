@@ -13,6 +13,7 @@
 use super::cost::CostModel;
 use crate::kinematics::Axes;
 use std::collections::HashSet;
+use std::ops::Range;
 
 /// A chosen path: node index per column and whether column `i` is entered
 /// through a break.
@@ -38,15 +39,75 @@ pub struct Columns<'a> {
     pub cost: &'a CostModel,
 }
 
-/// Blocked printing edges `(column of the edge's end, from node, to node)`.
-pub type Blocked = HashSet<(usize, usize, usize)>;
+/// Printing edges `(column of the edge's end, from node, to node)`.
+pub type EdgeSet = HashSet<(usize, usize, usize)>;
 
-/// Shortest path through the columns avoiding the `blocked` printing edges
+/// What the search knows of printing edges: which collide (only the break
+/// is left between those two nodes) and which are proven free (so they are
+/// not proven again).
+#[derive(Clone, Debug, Default)]
+pub struct Blocked {
+    /// Printing edges whose motion collides.
+    pub blocked: EdgeSet,
+    /// Printing edges proven free.
+    pub proven: EdgeSet,
+}
+
+/// Shortest path through the columns avoiding the blocked printing edges
 /// (breaks stay possible everywhere).
-pub fn shortest_path(g: Columns, blocked: &Blocked) -> Path {
+pub fn shortest_path(g: Columns, edges: &Blocked) -> Path {
     shortest_path_with(g.cols, g.lens, g.cost, &|i, k, j| {
-        blocked.contains(&(i, k, j))
+        edges.blocked.contains(&(i, k, j))
     })
+}
+
+/// `path` with only the columns in `window` solved again (after edges in
+/// it were blocked): the window's end columns keep the path's nodes unless
+/// they are the section's ends, so what lies outside stays as it was, and
+/// proven. Blocking one edge then costs proving a few new ones, not a new
+/// path through the whole section.
+pub fn repair(g: Columns, edges: &Blocked, path: &Path, window: Range<usize>) -> Path {
+    let last = g.cols.len() - 1;
+    let (a, b) = (window.start, window.end.min(last + 1) - 1);
+    let pinned = |i: usize| (i == a && a > 0) || (i == b && b < last);
+    let sub: Vec<Vec<Axes>> = (a..=b)
+        .map(|i| {
+            if pinned(i) {
+                vec![g.cols[i][path.nodes[i]]]
+            } else {
+                g.cols[i].clone()
+            }
+        })
+        .collect();
+    let global = |i: usize, n: usize| if pinned(i) { path.nodes[i] } else { n };
+    let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &|l, k, j| {
+        edges
+            .blocked
+            .contains(&(a + l, global(a + l - 1, k), global(a + l, j)))
+    });
+    let mut out = path.clone();
+    for (l, &n) in p.nodes.iter().enumerate() {
+        out.nodes[a + l] = global(a + l, n);
+        if l > 0 {
+            out.breaks[a + l] = p.breaks[l];
+        }
+    }
+    out.cost = path_cost(g, &out);
+    out
+}
+
+/// The cost of `path` from its own moves.
+pub fn path_cost(g: Columns, p: &Path) -> f64 {
+    (1..g.cols.len())
+        .map(|i| {
+            let (a, b) = (&g.cols[i - 1][p.nodes[i - 1]], &g.cols[i][p.nodes[i]]);
+            if p.breaks[i] {
+                g.cost.brk(g.lens[i - 1], a, b)
+            } else {
+                g.cost.print(g.lens[i - 1], a, b)
+            }
+        })
+        .sum()
 }
 
 /// [`shortest_path`] with the blocked edges given by a predicate.
@@ -156,7 +217,9 @@ pub fn shortest_path_subsampled(g: Columns, blocked: &Blocked, k: usize) -> Path
             }
         };
         let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &|l, kk, j| {
-            blocked.contains(&(a + l, global(a + l - 1, kk), global(a + l, j)))
+            blocked
+                .blocked
+                .contains(&(a + l, global(a + l - 1, kk), global(a + l, j)))
         });
         for (l, &n) in p.nodes.iter().enumerate() {
             nodes[a + l] = global(a + l, n);
@@ -178,22 +241,8 @@ mod tests {
     use super::*;
     use crate::kinematics::Machine;
 
-    /// Cost of `path` recomputed from its own moves.
-    fn path_cost(g: Columns, p: &Path) -> f64 {
-        (1..g.cols.len())
-            .map(|i| {
-                let (a, b) = (&g.cols[i - 1][p.nodes[i - 1]], &g.cols[i][p.nodes[i]]);
-                if p.breaks[i] {
-                    g.cost.brk(g.lens[i - 1], a, b)
-                } else {
-                    g.cost.print(g.lens[i - 1], a, b)
-                }
-            })
-            .sum()
-    }
-
-    fn brute(g: Columns, blocked: &Blocked) -> f64 {
-        fn go(g: Columns, blocked: &Blocked, i: usize, prev: usize, acc: f64, best: &mut f64) {
+    fn brute(g: Columns, blocked: &EdgeSet) -> f64 {
+        fn go(g: Columns, blocked: &EdgeSet, i: usize, prev: usize, acc: f64, best: &mut f64) {
             if i == g.cols.len() {
                 *best = best.min(acc);
                 return;
@@ -245,7 +294,7 @@ mod tests {
                 lens: &lens,
                 cost: &cm,
             };
-            let mut blocked = Blocked::new();
+            let mut blocked = EdgeSet::new();
             for i in 1..n {
                 for k in 0..cols[i - 1].len() {
                     for j in 0..cols[i].len() {
@@ -255,7 +304,11 @@ mod tests {
                     }
                 }
             }
-            let p = shortest_path(g, &blocked);
+            let edges = Blocked {
+                blocked: blocked.clone(),
+                proven: EdgeSet::new(),
+            };
+            let p = shortest_path(g, &edges);
             let b = brute(g, &blocked);
             assert!(
                 (p.cost - b).abs() < 1e-6 * b.max(1.0),
@@ -269,9 +322,29 @@ mod tests {
                     assert!(!blocked.contains(&(i, p.nodes[i - 1], p.nodes[i])));
                 }
             }
+            // Repairing a window of a path whose edges in it get blocked:
+            // a valid path avoiding them, unchanged outside the window,
+            // never cheaper than solving anew.
+            if n >= 4 {
+                let mut more = edges.clone();
+                for i in 2..n - 1 {
+                    more.blocked.insert((i, p.nodes[i - 1], p.nodes[i]));
+                }
+                let r = repair(g, &more, &p, 1..n - 1);
+                assert!((path_cost(g, &r) - r.cost).abs() < 1e-6 * r.cost.max(1.0));
+                assert_eq!(r.nodes[0], p.nodes[0]);
+                assert_eq!(r.nodes[n - 1], p.nodes[n - 1]);
+                let fresh = shortest_path(g, &more);
+                assert!(r.cost >= fresh.cost - 1e-6 * fresh.cost.max(1.0));
+                for i in 1..n {
+                    if !r.breaks[i] {
+                        assert!(!more.blocked.contains(&(i, r.nodes[i - 1], r.nodes[i])));
+                    }
+                }
+            }
             // Subsampling: never cheaper than exact, a valid path, exact at k = 1.
             for k in [1, 2, 3] {
-                let s = shortest_path_subsampled(g, &blocked, k);
+                let s = shortest_path_subsampled(g, &edges, k);
                 assert_eq!(s.nodes.len(), n);
                 assert!(s.cost >= p.cost - 1e-6 * p.cost.max(1.0), "k {k}");
                 if k == 1 {
@@ -305,7 +378,7 @@ mod tests {
             lens: &lens,
             cost: &cm,
         };
-        let path = shortest_path(g, &Blocked::new());
+        let path = shortest_path(g, &Blocked::default());
         assert_eq!(path.breaks, vec![false, true, false]);
     }
 }

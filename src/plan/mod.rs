@@ -227,6 +227,25 @@ pub fn head_reach(scene: &Scene) -> f64 {
 /// and 0.0005° on each angle, at both ends, 100 mm from the rotary axes.
 const ROUNDING_MM: f64 = 0.004;
 
+/// Columns on either side of a blocked edge that are solved again, tried
+/// in turn: a small window first (few new edges to prove), a larger one
+/// when routing around the block needs more breaks than the path had.
+pub const REPAIR_WINDOWS: [usize; 2] = [4, 32];
+
+/// Merged windows of `w` columns on either side of `cols` (sorted) in a
+/// section of `n` columns.
+fn windows(cols: &[usize], n: usize, w: usize) -> Vec<Range<usize>> {
+    let mut out: Vec<Range<usize>> = Vec::new();
+    for &k in cols {
+        let r = k.saturating_sub(w)..(k + w).min(n);
+        match out.last_mut() {
+            Some(last) if r.start <= last.end => last.end = last.end.max(r.end),
+            _ => out.push(r),
+        }
+    }
+    out
+}
+
 /// Sample spacing of the input's own moves (mm of head motion).
 pub const INPUT_STEP: f64 = 2.0;
 
@@ -241,8 +260,7 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 /// The graph search's bookkeeping per section.
 struct Search {
-    blocked: Vec<Blocked>,
-    verified: Vec<HashSet<(usize, usize, usize)>>,
+    edges: Vec<Blocked>,
     paths: Vec<Path>,
 }
 
@@ -444,6 +462,7 @@ impl<'a> State<'a> {
         &mut self,
         prover: &Prover,
         items: &[(usize, [(f64, f64); 2])],
+        likely_free: bool,
     ) -> Result<Vec<bool>, PlanError> {
         let cand: Vec<Vec<Axes>> = items
             .par_iter()
@@ -462,7 +481,11 @@ impl<'a> State<'a> {
                 owner.push(k);
             }
         }
-        let hits = prover.poses(&queries)?;
+        let hits = if likely_free {
+            prover.poses_wide(&queries)?
+        } else {
+            prover.poses(&queries)?
+        };
         let mut free = vec![Vec::new(); items.len()];
         for ((&k, h), q) in owner.iter().zip(hits).zip(&queries) {
             if self.symmetric {
@@ -508,7 +531,7 @@ impl<'a> State<'a> {
                 (g, pair)
             })
             .collect();
-        let mut offered = self.offer(prover, &base)?;
+        let mut offered = self.offer(prover, &base, true)?;
         // Variants, round by round, for waypoints with nothing free.
         let mut open: Vec<usize> = (0..n).filter(|&g| self.cols[g].is_empty()).collect();
         let mut round = 0u32;
@@ -535,7 +558,7 @@ impl<'a> State<'a> {
             if items.is_empty() {
                 break; // Sampling exhausted.
             }
-            for (k, o) in self.offer(prover, &items)?.into_iter().enumerate() {
+            for (k, o) in self.offer(prover, &items, false)?.into_iter().enumerate() {
                 offered[items[k].0] |= o;
             }
             open.retain(|&g| self.cols[g].is_empty());
@@ -571,7 +594,7 @@ impl<'a> State<'a> {
                     items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
                 }
                 for chunk in items.chunks(1 << 20) {
-                    for (k, o) in self.offer(prover, chunk)?.into_iter().enumerate() {
+                    for (k, o) in self.offer(prover, chunk, false)?.into_iter().enumerate() {
                         offered[chunk[k].0] |= o;
                     }
                 }
@@ -670,8 +693,7 @@ impl<'a> State<'a> {
             .map(|r| self.cost_model(self.layer_of[r.start]))
             .collect();
         let mut search = Search {
-            blocked: vec![Blocked::new(); self.sections.len()],
-            verified: vec![HashSet::new(); self.sections.len()],
+            edges: vec![Blocked::default(); self.sections.len()],
             paths: vec![
                 Path {
                     nodes: Vec::new(),
@@ -693,6 +715,9 @@ impl<'a> State<'a> {
 
     /// Solve sections `which` and prove their paths' printing moves,
     /// blocking what fails and solving again until every path is proven.
+    /// After a block, only a window of [`REPAIR_WINDOWS`] columns around it
+    /// is solved again (the rest of the path is already proven); the whole
+    /// section only when that needs fewer breaks than the repair.
     fn solve(
         &self,
         search: &mut Search,
@@ -701,34 +726,59 @@ impl<'a> State<'a> {
         models: &[CostModel],
         prover: &Prover,
     ) -> Result<(), PlanError> {
-        let solve_one = |s: usize, blocked: &Blocked| {
+        let columns = |s: usize| {
             let r = self.sections[s].clone();
-            graph::shortest_path_subsampled(
-                Columns {
-                    cols: &self.cols[r.clone()],
-                    lens: &lens[r],
-                    cost: &models[s],
-                },
-                blocked,
-                self.opts.subsample,
-            )
+            Columns {
+                cols: &self.cols[r.clone()],
+                lens: &lens[r],
+                cost: &models[s],
+            }
         };
-        let mut dirty: Vec<usize> = which.to_vec();
+        let breaks = |p: &Path| p.breaks.iter().filter(|&&b| b).count();
+        // Sections to solve, with the columns blocked since the last round
+        // (empty: solve the whole section).
+        let mut dirty: Vec<(usize, Vec<usize>)> = which.iter().map(|&s| (s, Vec::new())).collect();
         while !dirty.is_empty() {
             let fresh: Vec<Path> = dirty
                 .par_iter()
-                .map(|&s| solve_one(s, &search.blocked[s]))
+                .map(|(s, cols)| {
+                    let (g, edges) = (columns(*s), &search.edges[*s]);
+                    let full = || graph::shortest_path_subsampled(g, edges, self.opts.subsample);
+                    if cols.is_empty() {
+                        return full();
+                    }
+                    let old = &search.paths[*s];
+                    let mut repaired = old.clone();
+                    for w in REPAIR_WINDOWS {
+                        repaired = old.clone();
+                        for r in windows(cols, g.cols.len(), w) {
+                            repaired = graph::repair(g, edges, &repaired, r);
+                        }
+                        if breaks(&repaired) <= breaks(old) {
+                            return repaired;
+                        }
+                    }
+                    // The block costs a break: keep the repair unless a
+                    // new path through the whole section needs fewer.
+                    let fresh = full();
+                    if breaks(&fresh) < breaks(&repaired) {
+                        fresh
+                    } else {
+                        repaired
+                    }
+                })
                 .collect();
-            for (&s, p) in dirty.iter().zip(fresh) {
-                search.paths[s] = p;
+            for ((s, _), p) in dirty.iter().zip(fresh) {
+                search.paths[*s] = p;
             }
             let mut moves = Vec::new();
             let mut edges = Vec::new();
-            for &s in &dirty {
-                let (r, p) = (&self.sections[s], &search.paths[s]);
+            for (s, _) in &dirty {
+                let (r, p) = (&self.sections[*s], &search.paths[*s]);
                 for k in 1..r.len() {
                     let key = (k, p.nodes[k - 1], p.nodes[k]);
-                    if p.breaks[k] || search.verified[s].contains(&key) {
+                    let known = &search.edges[*s];
+                    if p.breaks[k] || known.proven.contains(&key) || known.blocked.contains(&key) {
                         continue;
                     }
                     let g = r.start + k;
@@ -738,18 +788,20 @@ impl<'a> State<'a> {
                         &self.cols[g - 1][key.1],
                         &self.cols[g][key.2],
                     ));
-                    edges.push((s, key, first..moves.len()));
+                    edges.push((*s, key, first..moves.len()));
                 }
             }
             let hits = prover.moves(&moves)?;
             dirty.clear();
             for (s, key, range) in edges {
-                search.verified[s].insert(key);
                 if hits[range].iter().any(|&h| h) {
-                    search.blocked[s].insert(key);
-                    if dirty.last() != Some(&s) {
-                        dirty.push(s);
+                    search.edges[s].blocked.insert(key);
+                    match dirty.last_mut() {
+                        Some((last, cols)) if *last == s => cols.push(key.0),
+                        _ => dirty.push((s, vec![key.0])),
                     }
+                } else {
+                    search.edges[s].proven.insert(key);
                 }
             }
         }

@@ -156,14 +156,6 @@ fn pose_key(a: &Axes, cutoff: u32) -> [i64; 6] {
     ]
 }
 
-/// What is known of one pose: free at margins up to `free`, colliding at
-/// margins from `hit` on.
-#[derive(Clone, Copy)]
-struct Known {
-    free: f64,
-    hit: f64,
-}
-
 /// Proves poses and joint-linear moves free at the safety margin, with
 /// one backend, in batches. What it has proven is kept (moves keyed by
 /// their exact values, poses by theirs and the margins known free or
@@ -184,7 +176,9 @@ pub struct Prover<'a> {
     /// always be proven.
     pub min_step: f64,
     cache: Mutex<HashMap<Key, bool>>,
-    known: Mutex<HashMap<[i64; 6], Known>>,
+    /// Poses known free, and the largest margin they are known free at
+    /// (colliding poses are not kept: they are rarely asked again).
+    known: Mutex<HashMap<[i64; 6], f64>>,
     queries: AtomicU64,
 }
 
@@ -245,15 +239,21 @@ impl<'a> Prover<'a> {
     }
 
     /// Do the poses `(axes, cutoff)` come within the pose margin of
-    /// existing material? One verdict each. Each pose is first asked with
-    /// the margin a move's first sample needs (`margin + step / 2`), so
-    /// that the moves into and out of it start proven at their ends; only
-    /// poses that fail that are asked again at the pose margin.
+    /// existing material? One verdict each.
     pub fn poses(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
+        self.poses_at(items, self.pose_margin())
+    }
+
+    /// [`Prover::poses`] for poses that are usually free (a waypoint's own
+    /// orientation): each is first asked with the margin a move's first
+    /// sample needs (`margin + step / 2`), so the moves into and out of it
+    /// start proven at their ends; only those that fail are asked again at
+    /// the pose margin.
+    pub fn poses_wide(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
         let wide = self.poses_at(items, self.margin + 0.5 * self.step)?;
         let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
         let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
-        let hits = self.poses_at(&again, self.pose_margin())?;
+        let hits = self.poses(&again)?;
         let mut out = vec![false; items.len()];
         for (&i, h) in near.iter().zip(hits) {
             out[i] = h;
@@ -272,23 +272,17 @@ impl<'a> Prover<'a> {
     }
 
     /// Do the poses `(axes, cutoff)` come within `margin` of existing
-    /// material? Poses already known free at a larger margin, or colliding
-    /// at a smaller one, are answered without a query.
+    /// material? Poses already known free at a larger margin are answered
+    /// without a query.
     pub fn poses_at(&self, items: &[(Axes, u32)], margin: f64) -> Result<Vec<bool>, CollideError> {
         let keys: Vec<[i64; 6]> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
         let mut out: Vec<Option<bool>> = {
             let known = self.known.lock().expect("prover cache");
             keys.iter()
                 .map(|k| {
-                    known.get(k).and_then(|s| {
-                        if s.free >= margin {
-                            Some(false)
-                        } else if s.hit <= margin {
-                            Some(true)
-                        } else {
-                            None
-                        }
-                    })
+                    known
+                        .get(k)
+                        .and_then(|&free| (free >= margin).then_some(false))
                 })
                 .collect()
         };
@@ -300,14 +294,9 @@ impl<'a> Prover<'a> {
         let hits = self.evaluate(&q)?;
         let mut known = self.known.lock().expect("prover cache");
         for (&i, h) in todo.iter().zip(hits) {
-            let e = known.entry(keys[i]).or_insert(Known {
-                free: f64::NEG_INFINITY,
-                hit: f64::INFINITY,
-            });
-            if h {
-                e.hit = e.hit.min(margin);
-            } else {
-                e.free = e.free.max(margin);
+            if !h {
+                let e = known.entry(keys[i]).or_insert(margin);
+                *e = e.max(margin);
             }
             out[i] = Some(h);
         }
@@ -380,7 +369,12 @@ impl<'a> Prover<'a> {
         let mut samples: Vec<Vec<Sample>> = {
             let known = self.known.lock().expect("prover cache");
             let at = |a: &Axes, cutoff: u32| {
-                let k = |c: u32| known.get(&pose_key(a, c)).map_or(f64::NEG_INFINITY, |s| s.free);
+                let k = |c: u32| {
+                    known
+                        .get(&pose_key(a, c))
+                        .copied()
+                        .unwrap_or(f64::NEG_INFINITY)
+                };
                 k(cutoff).max(k(cutoff + 1))
             };
             bounds
