@@ -72,18 +72,21 @@ fn default_tool() -> u32 {
     1
 }
 
-/// The second extruder that prints support layers (layers named `…S`), as
-/// the data set's original software does.
+/// The printing settings of one extruder. The machine file's `[support]`
+/// section is one: the second extruder that prints support layers (layers
+/// named `…S`), as the data set's original software does; the main
+/// extruder's come from `[extrusion]` and the machine's feed and tip-speed
+/// range ([`Machine::tool_for`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct SupportTool {
+pub struct ToolSettings {
     /// Tool number (`T<n>`).
     pub tool: u32,
     /// Nozzle temperature (°C).
     pub temperature: u32,
     /// Print feed (mm/s).
     pub feed: f64,
-    /// Extrusion factor relative to the main extruder's Eq. 1.
+    /// Extrusion factor on the main extruder's Eq. 1.
     pub extrusion: f64,
     /// X/Y offset of this nozzle from the main one (mm); the written X/Y of
     /// its moves are shifted by minus this.
@@ -92,16 +95,15 @@ pub struct SupportTool {
     pub tip_speed: [f64; 2],
 }
 
-impl Default for SupportTool {
-    fn default() -> Self {
-        SupportTool {
-            tool: 2,
-            temperature: 205,
-            feed: 41.667,
-            extrusion: 0.9,
-            offset: [0.0, 0.0],
-            tip_speed: [1.0, 41.667],
-        }
+/// The support extruder's defaults: the data set's reference G-code.
+pub fn default_support() -> ToolSettings {
+    ToolSettings {
+        tool: 2,
+        temperature: 205,
+        feed: 41.667,
+        extrusion: 0.9,
+        offset: [0.0, 0.0],
+        tip_speed: [1.0, 41.667],
     }
 }
 
@@ -206,8 +208,8 @@ pub struct Machine {
     #[serde(default = "default_tip_tolerance")]
     pub tip_tolerance: f64,
     /// The support extruder.
-    #[serde(default)]
-    pub support: SupportTool,
+    #[serde(default = "default_support")]
+    pub support: ToolSettings,
     /// Moves between printed sections.
     #[serde(default)]
     pub travel: Travel,
@@ -267,42 +269,17 @@ impl Default for Machine {
             },
             margin: default_margin(),
             tip_tolerance: default_tip_tolerance(),
-            support: SupportTool::default(),
+            support: default_support(),
             travel: Travel::default(),
         }
     }
-}
-
-/// The printing settings of one extruder, main or support.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ToolSettings {
-    /// Tool number (`T<n>`).
-    pub tool: u32,
-    /// Nozzle temperature (°C).
-    pub temperature: u32,
-    /// Print feed (mm/s).
-    pub feed: f64,
-    /// Extrusion factor on Eq. 1.
-    pub extrusion: f64,
-    /// X/Y offset from the main nozzle (mm).
-    pub offset: [f64; 2],
-    /// Tip-speed range (mm/s).
-    pub tip_speed: [f64; 2],
 }
 
 impl Machine {
     /// The extruder printing a layer: the support tool for support layers.
     pub fn tool_for(&self, support: bool) -> ToolSettings {
         if support {
-            let s = &self.support;
-            ToolSettings {
-                tool: s.tool,
-                temperature: s.temperature,
-                feed: s.feed,
-                extrusion: s.extrusion,
-                offset: s.offset,
-                tip_speed: s.tip_speed,
-            }
+            self.support
         } else {
             ToolSettings {
                 tool: self.extrusion.tool,

@@ -22,7 +22,7 @@
 pub mod machine_file;
 
 pub use machine_file::{
-    load_machine, AxisLimits, Extrusion, Machine, MachineError, SupportTool, ToolSettings, Travel,
+    load_machine, AxisLimits, Extrusion, Machine, MachineError, ToolSettings, Travel,
 };
 
 use crate::geometry::{Pose, V3};
