@@ -86,13 +86,7 @@ fn random_scenes_asymmetric_head() {
 fn verdicts_flip_at_each_poses_own_distance() {
     for seed in 20..23u64 {
         let mut r = rng(seed);
-        let tp = random_toolpath(&mut r, 3, 0.7);
-        let radii: Vec<f32> = (0..11)
-            .map(|j| 4.0 + 3.0 * ((j * 5 % 11) as f32 / 11.0))
-            .collect();
-        let head = star_head(&radii, 6.0, 14.0, [-1.0, 0.8]);
-        let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
-        let scene = Scene::build(&tp, &head, &platform, &cfg(0.2)).unwrap();
+        let scene = star_scene(&mut r);
         let base = random_queries(&mut r, &scene, 300);
         let (queries, expected) = margin_boundary_queries(&scene, &base, 1.5);
         assert!(

@@ -107,20 +107,7 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
 #[test]
 fn gpu_verdicts_flip_at_each_poses_own_distance() {
     let mut r = rng(120);
-    let tp = random_toolpath(&mut r, 3, 0.7);
-    let radii: Vec<f32> = (0..11)
-        .map(|j| 4.0 + 3.0 * ((j * 5 % 11) as f32 / 11.0))
-        .collect();
-    let head = star_head(&radii, 6.0, 14.0, [-1.0, 0.8]);
-    let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
-    let cfg = SceneConfig {
-        head: HeadConfig {
-            tip_clearance: 0.2,
-            grid_resolution: 48,
-        },
-        max_edge: None,
-    };
-    let scene = Scene::build(&tp, &head, &platform, &cfg).unwrap();
+    let scene = star_scene(&mut r);
     let Some(g) = gpu(&scene, GpuOptions::default()) else {
         return;
     };

@@ -344,6 +344,28 @@ pub fn margin_cases() -> Vec<MarginCase> {
     cases
 }
 
+/// The scene the margin-flip tests share: three random layers, an
+/// asymmetric 11-ray star head off its axis, a box platform, clearance
+/// 0.2 mm.
+pub fn star_scene(r: &mut ChaCha8Rng) -> Scene {
+    use maamplan::default_job::box_mesh;
+    use maamplan::scene::{HeadConfig, SceneConfig};
+    let tp = random_toolpath(r, 3, 0.7);
+    let radii: Vec<f32> = (0..11)
+        .map(|j| 4.0 + 3.0 * ((j * 5 % 11) as f32 / 11.0))
+        .collect();
+    let head = star_head(&radii, 6.0, 14.0, [-1.0, 0.8]);
+    let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
+    let cfg = SceneConfig {
+        head: HeadConfig {
+            tip_clearance: 0.2,
+            grid_resolution: 48,
+        },
+        max_edge: None,
+    };
+    Scene::build(&tp, &head, &platform, &cfg).unwrap()
+}
+
 /// Queries straddling each free pose's own distance: for every query of
 /// `base` that is free at margin 0 with the head's surface `d < cap` mm
 /// from the nearest existing triangle (brute force, f64), the same pose at
