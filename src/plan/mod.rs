@@ -23,6 +23,7 @@ pub mod candidates;
 pub mod cost;
 pub mod extrusion;
 pub mod graph;
+pub mod layer_reading;
 pub mod metrics;
 pub mod motion;
 pub mod program;
@@ -38,8 +39,9 @@ use candidates::Sampling;
 use cost::{CostModel, Winding};
 use extrusion::Height;
 use graph::{Blocked, Columns, Path};
+use layer_reading::NearestLayer;
 use metrics::{Metrics, SegmentStats};
-use motion::{tip_subdivision, MoveSpec, Prover};
+use motion::{tip_subdivision_where, MoveSpec, Prover};
 use program::{Assembly, Program, SectionPlan, Stop};
 use rayon::prelude::*;
 use smooth::Smoothing;
@@ -275,6 +277,9 @@ struct State<'a> {
     n0: Vec<[f64; 3]>,
     n1: Vec<[f64; 3]>,
     layer_of: Vec<usize>,
+    /// Which layer a tip position reads as (split points of beads are
+    /// placed where they read as their own layer).
+    reader: NearestLayer,
     /// Per layer: support layer? global index of its first waypoint.
     support: Vec<bool>,
     layer_start: Vec<usize>,
@@ -400,6 +405,7 @@ impl<'a> State<'a> {
             opts,
             symmetric: half_turn_symmetric(scene),
             n1: n0.clone(),
+            reader: NearestLayer::new(&pos, &layer_of),
             pos,
             n0,
             layer_of,
@@ -636,7 +642,9 @@ impl<'a> State<'a> {
         let mut b = *b;
         b.c = self.unwound(a.c, b.c);
         let mut from = *a;
-        tip_subdivision(self.machine, a, &b, self.machine.tip_tolerance)
+        let layer = self.layer_of[g];
+        let reads = |p| self.reader.reads_as(p, layer);
+        tip_subdivision_where(self.machine, a, &b, self.machine.tip_tolerance, reads)
             .into_iter()
             .map(|to| {
                 let mv = MoveSpec {
@@ -973,6 +981,7 @@ impl<'a> State<'a> {
             machine: self.machine,
             tip_tolerance: self.machine.tip_tolerance,
             sphere_z: self.sphere_z(prover.margin),
+            reader: &self.reader,
         };
         let (program, stuck) = asm.build(&sections, prover)?;
         if !stuck.is_empty() {

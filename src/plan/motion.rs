@@ -79,11 +79,29 @@ pub fn tip_deviation_bound(m: &Machine, a: &Axes, b: &Axes) -> f64 {
 /// interpolated linearly, every value rounded as written. Just `[b]` when
 /// the move needs no split.
 pub fn tip_subdivision(m: &Machine, a: &Axes, b: &Axes, tol: f64) -> Vec<Axes> {
+    tip_subdivision_where(m, a, b, tol, |_| true)
+}
+
+/// Piece counts tried beyond the smallest that keeps the tolerance when a
+/// split tip lands where `fits` refuses it.
+const EXTRA_PIECES: usize = 8;
+
+/// [`tip_subdivision`] with a say over where split tips land: of the
+/// piece counts from the smallest that keeps `tol` up to
+/// [`EXTRA_PIECES`] more, the first whose every split tip (part frame, as
+/// rounded) `fits`; the smallest when none does. The planner passes "reads
+/// as the bead's own layer" (see [`super::layer_reading`]).
+pub fn tip_subdivision_where(
+    m: &Machine,
+    a: &Axes,
+    b: &Axes,
+    tol: f64,
+    fits: impl Fn([f64; 3]) -> bool,
+) -> Vec<Axes> {
     let g = bow(m, a, b).0;
-    let mut n = ((g / (8.0 * tol)).sqrt().ceil() as usize).max(1);
     let (pa, pb) = (m.tip(a), m.tip(b));
-    loop {
-        let pts: Vec<Axes> = (1..=n)
+    let split = |n: usize| -> Vec<Axes> {
+        (1..=n)
             .map(|k| {
                 if k == n {
                     return *b;
@@ -92,17 +110,32 @@ pub fn tip_subdivision(m: &Machine, a: &Axes, b: &Axes, tol: f64) -> Vec<Axes> {
                 let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
                 m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
             })
-            .collect();
-        // Rounding moves the pieces' ends a little: re-check each piece.
-        let ok = std::iter::once(a)
-            .chain(&pts)
-            .zip(&pts)
-            .all(|(x, y)| tip_deviation_bound(m, x, y) <= tol);
-        if ok || n > 4096 {
-            return pts;
+            .collect()
+    };
+    // Rounding moves the pieces' ends a little: re-check each piece.
+    let within = |pts: &[Axes]| {
+        std::iter::once(a)
+            .chain(pts)
+            .zip(pts)
+            .all(|(x, y)| tip_deviation_bound(m, x, y) <= tol)
+    };
+    let mut n = ((g / (8.0 * tol)).sqrt().ceil() as usize).max(1);
+    let smallest = loop {
+        let pts = split(n);
+        if within(&pts) || n > 4096 {
+            break pts;
         }
         n += (n / 4).max(1);
+    };
+    let n0 = smallest.len();
+    let fit = |pts: &[Axes]| pts[..pts.len() - 1].iter().all(|x| fits(m.tip(x)));
+    if fit(&smallest) {
+        return smallest;
     }
+    (n0 + 1..=n0 + EXTRA_PIECES)
+        .map(split)
+        .find(|pts| within(pts) && fit(pts))
+        .unwrap_or(smallest)
 }
 
 /// One joint-linear move to prove: from `from` to `to` with the material
@@ -593,5 +626,36 @@ mod tests {
             assert!(dist(t, on) < 0.002);
             prev = *q;
         }
+    }
+
+    /// Split tips avoid where `fits` refuses them when a few more pieces
+    /// allow it, and keep the tolerance either way.
+    #[test]
+    fn subdivision_moves_split_tips_where_they_fit() {
+        let m = Machine::default();
+        let a = axes(&m, [30.0, 10.0, 50.0], -20.0, 10.0);
+        let b = axes(&m, [30.6, 10.2, 50.1], -20.0, 70.0);
+        let plain = tip_subdivision(&m, &a, &b, 0.05);
+        let (pa, pb) = (m.tip(&a), m.tip(&b));
+        // Refuse the middle third of the bead around the first split tip.
+        let u = |p: [f64; 3]| {
+            let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
+            ((p[0] - pa[0]) * seg[0] + (p[1] - pa[1]) * seg[1] + (p[2] - pa[2]) * seg[2])
+                / (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2])
+        };
+        let u0 = u(m.tip(&plain[0]));
+        let fits = |p: [f64; 3]| (u(p) - u0).abs() > 0.02;
+        assert!(!fits(m.tip(&plain[0])));
+        let moved = tip_subdivision_where(&m, &a, &b, 0.05, fits);
+        assert!(moved.len() > plain.len());
+        assert_eq!(*moved.last().unwrap(), b);
+        let mut prev = a;
+        for q in &moved {
+            assert!(tip_deviation_bound(&m, &prev, q) <= 0.05);
+            prev = *q;
+        }
+        assert!(moved[..moved.len() - 1].iter().all(|q| fits(m.tip(q))));
+        // Nowhere fits: the smallest split.
+        assert_eq!(tip_subdivision_where(&m, &a, &b, 0.05, |_| false), plain);
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! A program is a list of [`Step`]s. Printing a section is a run of
 //! [`MoveKind::Print`] moves (each bead segment split by
-//! [`tip_subdivision`] where joint-linear interpolation would bow the tip
+//! [`tip_subdivision_where`](super::motion::tip_subdivision_where) where joint-linear interpolation would bow the tip
 //! off the bead); getting from one section to the next (or across a break,
 //! or at the start and end) is a [`Travel`]: retract, lift to a safe
 //! height, tool change if the next layer needs the other extruder, travel
@@ -13,7 +13,8 @@
 //! re-planned higher, or with the rotation done before the horizontal
 //! move, before it is given up (and counted).
 
-use super::motion::{tip_subdivision, MoveSpec, Prover};
+use super::layer_reading::NearestLayer;
+use super::motion::{tip_subdivision_where, MoveSpec, Prover};
 use crate::collide::CollideError;
 use crate::kinematics::{round_angle, round_written, Axes, Machine, ToolSettings};
 
@@ -320,6 +321,9 @@ pub struct Assembly<'a> {
     pub tip_tolerance: f64,
     /// Machine Z above which no rotation can bring material to the head.
     pub sphere_z: f64,
+    /// Which layer a tip reads as: beads are split where the split tips
+    /// read as the bead's own layer (as the planner proved them).
+    pub reader: &'a NearestLayer,
 }
 
 /// A travel of the program and the alternatives left to try.
@@ -399,7 +403,8 @@ impl Assembly<'_> {
                     pending.push(self.pending(prog.steps.len(), &t, z_run));
                     prog.steps.push(Step::Travel(t));
                 } else {
-                    let pts = tip_subdivision(m, &at, &b, self.tip_tolerance);
+                    let reads = |p| self.reader.reads_as(p, sec.layer);
+                    let pts = tip_subdivision_where(m, &at, &b, self.tip_tolerance, reads);
                     let n = pts.len();
                     for (k, to) in pts.into_iter().enumerate() {
                         let f = (k + 1) as f64 / n as f64;

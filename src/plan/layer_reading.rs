@@ -1,0 +1,73 @@
+//! Which layer a point of the program reads as.
+//!
+//! A G-code file does not say which layer a line prints. A reader that
+//! needs to know — to decide which material exists while the line runs —
+//! takes the layer of the waypoint nearest to the nozzle tip (as the
+//! data set's `gcode_audit.py` does, and as the original software's
+//! stamps do for layer triangles). A waypoint reads as its own layer, but a
+//! point that splits a bead (see [`tip_subdivision_where`]) can lie nearer
+//! to a waypoint of the layer above than to either end of its bead, and
+//! such a reader would then check the move against the rest of the
+//! current layer, material not printed yet. [`NearestLayer`] answers the
+//! question so that split points can be placed where they read right.
+//!
+//! [`tip_subdivision_where`]: super::motion::tip_subdivision_where
+
+use rstar::primitives::GeomWithData;
+use rstar::RTree;
+
+type Site = GeomWithData<[f64; 3], u32>;
+
+/// All waypoints of a toolpath, indexed by position, with their layers.
+pub struct NearestLayer {
+    tree: RTree<Site>,
+}
+
+impl NearestLayer {
+    /// Index waypoints at `pos` (part frame) whose layers are `layer_of`.
+    pub fn new(pos: &[[f64; 3]], layer_of: &[usize]) -> Self {
+        let sites = pos
+            .iter()
+            .zip(layer_of)
+            .map(|(p, &k)| Site::new(*p, k as u32))
+            .collect();
+        NearestLayer {
+            tree: RTree::bulk_load(sites),
+        }
+    }
+
+    /// Does `p` read as `layer`: is a waypoint of `layer` at least as near
+    /// to `p` as every waypoint of the other layers?
+    pub fn reads_as(&self, p: [f64; 3], layer: usize) -> bool {
+        let mut nearest = None;
+        for (site, d2) in self.tree.nearest_neighbor_iter_with_distance_2(p) {
+            match nearest {
+                Some(d) if d2 > d => return false,
+                _ => nearest = Some(d2),
+            }
+            if site.data as usize == layer {
+                return true;
+            }
+        }
+        false
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_point_reads_as_the_layer_of_its_nearest_waypoint() {
+        // Layer 0 along x at z = 0, 1 mm apart; layer 1 at z = 0.3 over
+        // x = 0.5 only.
+        let pos = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.5, 0.0, 0.3]];
+        let near = NearestLayer::new(&pos, &[0, 0, 1]);
+        assert!(near.reads_as([0.1, 0.0, 0.0], 0));
+        assert!(!near.reads_as([0.5, 0.0, 0.0], 0));
+        assert!(near.reads_as([0.5, 0.0, 0.0], 1));
+        // A tie counts for the asked layer.
+        let tie = NearestLayer::new(&[[0.0; 3], [2.0, 0.0, 0.0]], &[0, 1]);
+        assert!(tie.reads_as([1.0, 0.0, 0.0], 0) && tie.reads_as([1.0, 0.0, 0.0], 1));
+    }
+}
