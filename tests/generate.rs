@@ -226,18 +226,23 @@ fn slice_then_plan_end_to_end() {
     let head = cone_head(20.0, 20.0, 30.0, 32);
     let scene = Scene::build(&back, &head, &platform, &SceneConfig::default()).unwrap();
     let backend = CpuBackend::new(&scene);
-    let mut stages = Vec::new();
+    let mut ended = Vec::new();
     let p = plan(
         &scene,
         &back,
         &Machine::default(),
         &backend,
         &PlanOptions::default(),
-        &mut |s| stages.push(s.to_string()),
+        &mut |e| {
+            if let maamplan::plan::Progress::Done(s) = e {
+                ended.push(s.clone());
+            }
+        },
     )
     .unwrap();
     assert_eq!(p.waypoints.len(), back.waypoint_count());
-    assert!(!stages.is_empty());
+    // Every stage was reported as it ended, with the figures the plan keeps.
+    assert_eq!(ended, p.stages);
     assert_plan_is_printable(&p, &Machine::default());
     // Planar layers need no tilt: the nozzle stays along the slicing
     // direction wherever nothing forces it away.

@@ -408,3 +408,33 @@ fn check_and_plan_pose_the_head_alike_and_count_the_same_flags() {
     assert_eq!(c["colliding_moves"], 0);
     assert!(c["moves"].as_u64().unwrap() > 1000);
 }
+
+/// Under `-v` with stdout piped, each stage's line arrives as the stage
+/// ends, not with the summary: the load line is readable while the
+/// planner still works (nothing written yet).
+#[test]
+fn verbose_stage_lines_arrive_as_stages_end_when_piped() {
+    use std::io::{BufRead, BufReader};
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    // The embedded default job: seconds of planning after its load.
+    let mut child = Command::new(env!("CARGO_BIN_EXE_maamplan"))
+        .args(["plan", "--backend", "cpu", "--no-plots", "-v", "-o"])
+        .arg(&out)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stdout.take().unwrap()).lines();
+    let first = lines.next().unwrap().unwrap();
+    let planning = !out.join("report.json").exists();
+    child.kill().ok();
+    child.wait().ok();
+    assert!(first.starts_with("stage load"), "{first}");
+    assert!(first.trim_end().ends_with(" s"), "{first}");
+    assert!(
+        planning,
+        "the first stage line came only after the run ended"
+    );
+}

@@ -6,6 +6,7 @@ mod check;
 mod info;
 mod isoplanar;
 pub mod plan;
+mod progress;
 mod slice;
 
 use anyhow::Result;

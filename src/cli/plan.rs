@@ -1,6 +1,7 @@
 //! `maamplan plan`: waypoints → the machine's program (G-code), a CSV and a
 //! report.
 
+use super::progress::Reporter;
 use super::{BackendKind, SceneArgs, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -95,7 +96,7 @@ pub struct PlanArgs {
     /// Print only errors.
     #[arg(short, long)]
     quiet: bool,
-    /// Print seconds per stage too.
+    /// Print a line per stage (seconds, collision queries) as it ends.
     #[arg(short, long, conflicts_with = "quiet")]
     verbose: bool,
     /// Write the default machine file here and exit.
@@ -167,6 +168,8 @@ pub fn run(a: PlanArgs) -> Result<()> {
     }
     check_output(&out)?;
     let t0 = Instant::now();
+    let show = Reporter::new(a.quiet, a.verbose);
+    show.begin("loading");
     let machine = match &a.machine {
         Some(p) => load_machine(p)?,
         None => Machine::default(),
@@ -175,6 +178,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let scene = &job.scene;
     let backend = a.backend.build(scene, !a.quiet)?;
     let load_s = t0.elapsed().as_secs_f64();
+    show.stage_line("load", load_s, None);
 
     let opts = PlanOptions {
         smoothing: match a.smoothing {
@@ -203,25 +207,14 @@ pub fn run(a: PlanArgs) -> Result<()> {
         margin: a.margin,
         ..PlanOptions::default()
     };
-    let pb = if a.quiet {
-        indicatif::ProgressBar::hidden()
-    } else {
-        indicatif::ProgressBar::new_spinner()
-    };
-    pb.set_style(
-        indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})")
-            .expect("static template"),
-    );
-    pb.enable_steady_tick(std::time::Duration::from_millis(120));
     let p = plan(
         scene,
         &job.toolpath,
         &machine,
         backend.as_ref(),
         &opts,
-        &mut |stage| pb.set_message(stage.to_string()),
+        &mut |e| show.on(e),
     )?;
-    pb.finish_and_clear();
 
     let layer_name = |l: usize| job.toolpath.layers[l].name.clone();
     let skipped: Vec<serde_json::Value> = p
@@ -250,6 +243,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         .into());
     }
 
+    show.begin("writing");
     let t1 = Instant::now();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let gcode = write_gcode(
@@ -262,6 +256,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     );
     let csv = write_plan_csv(&machine, &p.waypoints);
     let write_s = t1.elapsed().as_secs_f64();
+    show.stage_line("write", write_s, None);
     let mut stages = serde_json::Map::new();
     stages.insert("load".into(), json!(load_s));
     for s in &p.stages {
@@ -297,6 +292,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     ];
     let flipped = job.flipped_names();
     if !a.no_plots {
+        show.begin("report");
         let t2 = Instant::now();
         let figs =
             maamplan::report::plots::write_figures(&machine, &p, &scratch.path().join("plots"))
@@ -317,7 +313,9 @@ pub fn run(a: PlanArgs) -> Result<()> {
             seconds,
         );
         put("report.html", html.as_bytes())?;
-        stages.insert("report".into(), json!(t2.elapsed().as_secs_f64()));
+        let report_s = t2.elapsed().as_secs_f64();
+        show.stage_line("report", report_s, None);
+        stages.insert("report".into(), json!(report_s));
         files.extend([
             "scene.glb".to_string(),
             "report.html".to_string(),
@@ -357,25 +355,12 @@ pub fn run(a: PlanArgs) -> Result<()> {
         std::fs::rename(scratch.path().join(f), &dst)
             .map_err(|e| UsageError(format!("{}: cannot write ({e})", dst.display())))?;
     }
+    show.finish();
     if a.quiet {
         return Ok(());
     }
     for w in &p.warnings {
         eprintln!("warning: {w}");
-    }
-    if a.verbose {
-        println!("stage {:<14} {:>8.3} s", "load", load_s);
-        for s in &p.stages {
-            println!(
-                "stage {:<14} {:>8.3} s {:>12} collision queries",
-                s.name, s.seconds, s.queries
-            );
-        }
-        for k in ["report", "write"] {
-            if let Some(v) = stages.get(k) {
-                println!("stage {k:<14} {:>8.3} s", v.as_f64().unwrap_or(0.0));
-            }
-        }
     }
     if !flipped.is_empty() {
         println!(

@@ -7,6 +7,7 @@
 use super::mesh::load_mesh;
 use super::{read_to_string, InputError, Placement};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
+use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
 /// Load a toolpath folder or a single waypoint file.
@@ -59,28 +60,34 @@ pub fn load_toolpath(path: &Path, place: &Placement) -> Result<Toolpath, InputEr
             ),
         ));
     }
-    let mut layers = Vec::with_capacity(waypoint_files.len());
-    for (i, wfile) in waypoint_files.iter().enumerate() {
-        let name = stem(wfile);
-        let surface = match layer_files.get(i) {
-            Some(lfile) => {
-                if stem(lfile) != name {
-                    return Err(InputError::file(
-                        lfile,
-                        format!("expected the layer surface for waypoint/{name}.txt here: name layer files like their waypoint files"),
-                    ));
+    // Layers are read in parallel; the first bad file in layer order is
+    // the one reported, so errors are deterministic too.
+    let layers: Vec<Result<Layer, InputError>> = waypoint_files
+        .par_iter()
+        .enumerate()
+        .map(|(i, wfile)| {
+            let name = stem(wfile);
+            let surface = match layer_files.get(i) {
+                Some(lfile) => {
+                    if stem(lfile) != name {
+                        return Err(InputError::file(
+                            lfile,
+                            format!("expected the layer surface for waypoint/{name}.txt here: name layer files like their waypoint files"),
+                        ));
+                    }
+                    let m = load_mesh(lfile)?;
+                    Some(m.map_vertices(|v| place.point(v)))
                 }
-                let m = load_mesh(lfile)?;
-                Some(m.map_vertices(|v| place.point(v)))
-            }
-            None => None,
-        };
-        layers.push(Layer {
-            waypoints: load_waypoints(wfile, place)?,
-            name,
-            surface,
-        });
-    }
+                None => None,
+            };
+            Ok(Layer {
+                waypoints: load_waypoints(wfile, place)?,
+                name,
+                surface,
+            })
+        })
+        .collect();
+    let layers = layers.into_iter().collect::<Result<Vec<_>, _>>()?;
     Ok(Toolpath { layers })
 }
 

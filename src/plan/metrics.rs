@@ -23,7 +23,8 @@ pub struct Metrics {
     pub residual_collisions: usize,
     /// Moves that come within the margin of material somewhere (plan: every
     /// move of the written program, re-checked; input: segments between
-    /// consecutive waypoints, sampled — a lower bound).
+    /// consecutive waypoints — from or to a colliding pose, proven by the
+    /// graph where the plan kept both poses, else sampled — a lower bound).
     pub colliding_edges: usize,
     /// Moves of the written program checked (plan only).
     pub program_moves: usize,

@@ -187,6 +187,22 @@ pub struct Plan {
     pub queries: u64,
 }
 
+/// What [`plan`] tells its caller as it goes.
+#[derive(Clone, Copy, Debug)]
+pub enum Progress<'a> {
+    /// A stage begins (its name as users read it).
+    Stage(&'a str),
+    /// Collision queries of the current batch: `done` of `total`.
+    Queries {
+        /// Answered so far.
+        done: u64,
+        /// In the batch.
+        total: u64,
+    },
+    /// A stage ended.
+    Done(&'a Stage),
+}
+
 /// One stage of the planner: its name, wall time and collision queries.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Stage {
@@ -300,57 +316,65 @@ struct State<'a> {
 }
 
 /// Plan `toolpath` (whose scene is `scene`) for `machine`, answering every
-/// collision question with `backend`. `progress` hears each stage's name.
+/// collision question with `backend`. `progress` hears each stage begin
+/// and end, and the progress of every batch of queries.
 pub fn plan(
     scene: &Scene,
     toolpath: &Toolpath,
     machine: &Machine,
     backend: &dyn Backend,
     opts: &PlanOptions,
-    progress: &mut dyn FnMut(&str),
+    progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Plan, PlanError> {
     let n_wp = toolpath.waypoint_count();
     if scene.waypoint_queries.len() != n_wp {
         return Err(PlanError::Mismatch(scene.waypoint_queries.len(), n_wp));
     }
     let margin = opts.margin.unwrap_or(machine.margin);
-    let prover = Prover::new(machine, backend, head_reach(scene), margin, opts.edge_step);
+    let progress = std::sync::Mutex::new(progress);
+    let tell = |p: Progress| (progress.lock().expect("progress"))(p);
+    let tick = |done, total| tell(Progress::Queries { done, total });
+    let prover =
+        Prover::new(machine, backend, head_reach(scene), margin, opts.edge_step).with_ticker(&tick);
     let mut stages = Vec::new();
     let mut clock = Instant::now();
     let mut asked = 0;
     let mut lap = |name: &str, stages: &mut Vec<Stage>| {
         let q = prover.queries();
-        stages.push(Stage {
+        let stage = Stage {
             name: name.to_string(),
             seconds: clock.elapsed().as_secs_f64(),
             queries: q - asked,
-        });
+        };
+        tell(Progress::Done(&stage));
+        stages.push(stage);
         asked = q;
         clock = Instant::now();
     };
     let mut st = State::new(scene, toolpath, machine, opts);
 
-    progress("smoothing");
+    tell(Progress::Stage("smoothing"));
     st.smooth();
     lap("smooth", &mut stages);
-    progress("singularities");
+    tell(Progress::Stage("singularities"));
     st.singularities();
     lap("singularities", &mut stages);
-    progress("collisions");
+    tell(Progress::Stage("collisions"));
     st.columns(&prover)?;
     lap("columns", &mut stages);
-    progress("graph");
+    tell(Progress::Stage("graph"));
     st.graph(&prover)?;
     lap("graph", &mut stages);
-    progress("extrusion");
+    tell(Progress::Stage("extrusion"));
     st.extrusion();
     lap("extrusion", &mut stages);
-    progress("program");
+    tell(Progress::Stage("program"));
     let program = st.program(&prover)?;
     lap("program", &mut stages);
-    progress("metrics");
+    tell(Progress::Stage("metrics"));
     let (plan_m, waypoints) = st.plan_metrics(&program, &prover)?;
     lap("verify", &mut stages);
+    tell(Progress::Stage("input metrics"));
     let (input_m, input_axes, was_colliding) = st.input_metrics(&prover)?;
     lap("input", &mut stages);
     let waypoints = waypoints
@@ -1205,10 +1229,13 @@ impl<'a> State<'a> {
     }
 
     /// Stage 7b: the input measured by the same rules (direct IK, C
-    /// unwound, orientations unchanged). Its moves — C swings of hundreds of
-    /// degrees between neighbours — are only sampled ([`INPUT_STEP`] mm of
-    /// head motion apart, at most 16 samples), so its colliding-edge count
-    /// is a lower bound.
+    /// unwound, orientations unchanged), from the work already done where
+    /// it can be: a move from or to a pose within the margin collides; a
+    /// move the graph proved (the plan kept both input poses) has that
+    /// verdict. Only the rest — C swings of hundreds of degrees between
+    /// neighbours, mostly — are sampled ([`INPUT_STEP`] mm of head motion
+    /// apart, at most 16 samples), so the colliding-edge count is a lower
+    /// bound.
     fn input_metrics(&self, prover: &Prover) -> Result<(Metrics, Vec<Axes>, Vec<bool>), PlanError> {
         let m = self.machine;
         let axes = input_axes(m, &self.pos, &self.n0, &self.runs);
@@ -1218,21 +1245,38 @@ impl<'a> State<'a> {
             .map(|(g, a)| (*a, cutoff(g)))
             .collect();
         let hit = prover.poses_at(&items, prover.margin)?;
-        let mut specs = Vec::new();
-        for r in &self.runs {
-            for g in r.start + 1..r.end {
-                specs.push(MoveSpec {
-                    from: axes[g - 1],
-                    to: axes[g],
-                    cutoff: cutoff(g - 1),
-                });
-            }
-        }
-        let edge_hits = prover.sampled_moves(&specs, INPUT_STEP, 16)?;
+        let edges: Vec<usize> = self.runs.iter().flat_map(|r| r.start + 1..r.end).collect();
+        let known: Vec<Option<bool>> = edges
+            .par_iter()
+            .map(|&g| {
+                if hit[g - 1] || hit[g] {
+                    return Some(true);
+                }
+                let proven: Option<Vec<bool>> = self
+                    .print_moves(g, &axes[g - 1], &axes[g])
+                    .iter()
+                    .map(|mv| prover.known_move(mv))
+                    .collect();
+                proven.map(|v| v.contains(&true))
+            })
+            .collect();
+        let specs: Vec<MoveSpec> = edges
+            .iter()
+            .zip(&known)
+            .filter(|(_, k)| k.is_none())
+            .map(|(&g, _)| MoveSpec {
+                from: axes[g - 1],
+                to: axes[g],
+                cutoff: cutoff(g - 1),
+            })
+            .collect();
+        let sampled = prover.sampled_moves(&specs, INPUT_STEP, 16)?;
+        let colliding_edges = known.iter().filter(|k| **k == Some(true)).count()
+            + sampled.iter().filter(|&&h| h).count();
         let mut out = Metrics {
             waypoints: self.pos.len(),
             residual_collisions: hit.iter().filter(|&&h| h).count(),
-            colliding_edges: edge_hits.iter().filter(|&&h| h).count(),
+            colliding_edges,
             singular_waypoints: self.was_singular.iter().filter(|&&s| s).count(),
             ..Metrics::default()
         };

@@ -213,7 +213,16 @@ pub struct Prover<'a> {
     /// (colliding poses are not kept: they are rarely asked again).
     known: Mutex<HashMap<[i64; 6], f64>>,
     queries: AtomicU64,
+    /// Hears `(done, total)` queries of each batch as it is answered.
+    ticker: Option<Ticker<'a>>,
 }
+
+/// Where a [`Prover`] reports the progress of its batches.
+pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
+
+/// Queries per backend call when a [`Ticker`] listens: large enough to
+/// keep a batch backend busy, small enough for a progress bar to move.
+const TICK_BATCH: usize = 1 << 16;
 
 /// Per-sample state of a move being proven: parameter, largest margin it
 /// is known free at, smallest margin it is known to collide at.
@@ -244,7 +253,14 @@ impl<'a> Prover<'a> {
             cache: Mutex::new(HashMap::new()),
             known: Mutex::new(HashMap::new()),
             queries: AtomicU64::new(0),
+            ticker: None,
         }
+    }
+
+    /// Report every batch's progress to `ticker` (queries done, total).
+    pub fn with_ticker(mut self, ticker: Ticker<'a>) -> Self {
+        self.ticker = Some(ticker);
+        self
     }
 
     /// Collision queries answered so far.
@@ -260,7 +276,15 @@ impl<'a> Prover<'a> {
 
     fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
         self.queries.fetch_add(q.len() as u64, Ordering::Relaxed);
-        self.backend.evaluate(q)
+        let Some(tick) = self.ticker else {
+            return self.backend.evaluate(q);
+        };
+        let mut out = Vec::with_capacity(q.len());
+        for chunk in q.chunks(TICK_BATCH) {
+            out.extend(self.backend.evaluate(chunk)?);
+            tick(out.len() as u64, q.len() as u64);
+        }
+        Ok(out)
     }
 
     fn query(&self, a: &Axes, cutoff: u32, margin: f64) -> Query {
@@ -367,6 +391,15 @@ impl<'a> Prover<'a> {
             k += q.len();
         }
         Ok(out)
+    }
+
+    /// The verdict already found for `mv` by [`Prover::moves`], if any.
+    pub fn known_move(&self, mv: &MoveSpec) -> Option<bool> {
+        self.cache
+            .lock()
+            .expect("prover cache")
+            .get(&key(mv))
+            .copied()
     }
 
     /// Does each move come within the margin of existing material at any

@@ -108,10 +108,18 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
     Ok(StampedBvh { nodes, triangles })
 }
 
+/// Subtrees of at most this many triangles get the exact radius; above,
+/// a node's radius is the tighter of its box's and its children's spheres'
+/// bound (a descent from every node would cost O(n log n) vertex visits).
+const EXACT_SPHERE_TRIS: u32 = 64;
+
 /// The same tree as bounding spheres: centre = box centre, radius = the
-/// farthest vertex below, computed in `f64` and rounded up so the sphere
+/// farthest vertex below (exact for subtrees of at most
+/// [`EXACT_SPHERE_TRIS`] triangles, a bound from the children's spheres
+/// and the box above), computed in `f64` and rounded up so the sphere
 /// always contains every triangle.
 pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
+    use rayon::prelude::*;
     let nodes = &bvh.nodes;
     let mut out: Vec<GpuPartNode> = nodes
         .iter()
@@ -127,39 +135,85 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
             _pad: [0; 2],
         })
         .collect();
-    // Each node's radius over its subtree's vertices, via a descent from
-    // every node (depth is bounded by the stack check in `build`).
-    let radii: Vec<f32> = {
-        use rayon::prelude::*;
-        (0..nodes.len())
-            .into_par_iter()
-            .map(|i| {
-                let c = out[i].center.map(|x| x as f64);
-                let mut r2: f64 = 0.0;
-                let mut stack = vec![i];
-                while let Some(j) = stack.pop() {
-                    match nodes[j].leaf_range() {
-                        Some((first, count)) => {
-                            for t in &bvh.triangles[first as usize..(first + count) as usize] {
-                                for v in [t.v0, t.v1, t.v2] {
-                                    let d: f64 = (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum();
-                                    r2 = r2.max(d);
-                                }
+    // Children before parents (obvhs may store a child before its parent).
+    let mut post = Vec::with_capacity(nodes.len());
+    let mut stack = vec![(0usize, false)];
+    while let Some((i, done)) = stack.pop() {
+        match nodes[i].leaf_range() {
+            Some(_) => post.push(i),
+            None if done => post.push(i),
+            None => {
+                let l = nodes[i].packed as usize;
+                stack.extend([(i, true), (l, false), (l + 1, false)]);
+            }
+        }
+    }
+    let mut count = vec![0u32; nodes.len()];
+    for &i in &post {
+        count[i] = match nodes[i].leaf_range() {
+            Some((_, c)) => c,
+            None => {
+                let l = nodes[i].packed as usize;
+                count[l] + count[l + 1]
+            }
+        };
+    }
+    let round_up = |r2: f64| (r2.sqrt() as f32).next_up();
+    // Exact radii of the small subtrees, by descent.
+    let exact: Vec<Option<f32>> = (0..nodes.len())
+        .into_par_iter()
+        .map(|i| {
+            if count[i] > EXACT_SPHERE_TRIS {
+                return None;
+            }
+            let c = out[i].center.map(|x| x as f64);
+            let mut r2: f64 = 0.0;
+            let mut stack = vec![i];
+            while let Some(j) = stack.pop() {
+                match nodes[j].leaf_range() {
+                    Some((first, count)) => {
+                        for t in &bvh.triangles[first as usize..(first + count) as usize] {
+                            for v in [t.v0, t.v1, t.v2] {
+                                let d: f64 = (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum();
+                                r2 = r2.max(d);
                             }
                         }
-                        None => {
-                            let l = nodes[j].packed as usize;
-                            stack.extend([l, l + 1]);
-                        }
+                    }
+                    None => {
+                        let l = nodes[j].packed as usize;
+                        stack.extend([l, l + 1]);
                     }
                 }
-                let r = r2.sqrt() as f32;
-                r.next_up()
-            })
-            .collect()
-    };
-    for (n, r) in out.iter_mut().zip(radii) {
-        n.radius = r;
+            }
+            Some(round_up(r2))
+        })
+        .collect();
+    // The large ones, children first: every vertex below lies in the box
+    // and in a child's sphere.
+    for &i in &post {
+        out[i].radius = match exact[i] {
+            Some(r) => r,
+            None => {
+                let c = out[i].center.map(|x| x as f64);
+                let n = &nodes[i];
+                let corner: f64 = (0..3)
+                    .map(|k| {
+                        let lo = (n.min[k] as f64 - c[k]).abs();
+                        let hi = (n.max[k] as f64 - c[k]).abs();
+                        lo.max(hi).powi(2)
+                    })
+                    .sum();
+                let l = n.packed as usize;
+                let via = |j: usize| {
+                    let d: f64 = (0..3)
+                        .map(|k| (out[j].center[k] as f64 - c[k]).powi(2))
+                        .sum();
+                    d.sqrt() + out[j].radius as f64
+                };
+                let child = via(l).max(via(l + 1));
+                round_up(corner.min(child * child))
+            }
+        };
     }
     out
 }

@@ -14,6 +14,7 @@ pub use head::{Head, HeadConfig};
 
 use crate::geometry::{Aabb, Mesh, Pose};
 use crate::toolpath::Toolpath;
+use rayon::prelude::*;
 
 /// What can go wrong building a scene.
 #[derive(Debug, thiserror::Error)]
@@ -164,22 +165,26 @@ impl Scene {
             layer: None,
         });
         let offsets = toolpath.layer_offsets();
-        for (k, layer) in toolpath.layers.iter().enumerate() {
-            let Some(surface) = &layer.surface else {
-                continue;
-            };
-            let (surface, _) = surface.welded().without_degenerate();
-            if surface.triangles.is_empty() || layer.waypoints.is_empty() {
-                continue;
-            }
-            let mesh = surface.subdivided(max_edge);
-            let stamps = stamp::nearest_waypoint_stamps(&mesh, &layer.waypoints, offsets[k]);
-            groups.push(PartGroup {
-                mesh,
-                stamps,
-                layer: Some(k),
-            });
-        }
+        let layers: Vec<PartGroup> = toolpath
+            .layers
+            .par_iter()
+            .enumerate()
+            .filter_map(|(k, layer)| {
+                let surface = layer.surface.as_ref()?;
+                let (surface, _) = surface.welded().without_degenerate();
+                if surface.triangles.is_empty() || layer.waypoints.is_empty() {
+                    return None;
+                }
+                let mesh = surface.subdivided(max_edge);
+                let stamps = stamp::nearest_waypoint_stamps(&mesh, &layer.waypoints, offsets[k]);
+                Some(PartGroup {
+                    mesh,
+                    stamps,
+                    layer: Some(k),
+                })
+            })
+            .collect();
+        groups.extend(layers);
 
         let mut soup = Vec::new();
         for g in &groups {
