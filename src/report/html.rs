@@ -24,6 +24,26 @@ pub struct ReportContext<'a> {
     pub flipped_layers: &'a [String],
 }
 
+/// Per-layer B/C figures the page embeds at most (the plots folder has
+/// them all): enough to see the part's story, small enough that the page
+/// stays a few megabytes on parts of hundreds of layers.
+pub const REPORT_LAYER_FIGURES: usize = 24;
+
+/// At most `max` of `layers` layers, evenly spaced, first and last included.
+pub fn shown_layers(layers: usize, max: usize) -> Vec<usize> {
+    if layers <= max {
+        return (0..layers).collect();
+    }
+    if max < 2 {
+        return (0..max).collect();
+    }
+    let mut v: Vec<usize> = (0..max)
+        .map(|i| (i * (layers - 1) + (max - 1) / 2) / (max - 1))
+        .collect();
+    v.dedup();
+    v
+}
+
 /// The page.
 pub fn report_html(
     ctx: &ReportContext,
@@ -85,7 +105,21 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
         );
     }
     let _ = writeln!(h, "</table>\n<h2>Plots</h2>");
+    let layers = layer_table(plan).len();
+    let shown = shown_layers(layers, REPORT_LAYER_FIGURES);
+    if shown.len() < layers {
+        let _ = writeln!(
+            h,
+            "<p id=\"sampled\">B and C of {} of the {layers} layers, evenly spaced; every layer's plot is in plots/bc_layer_&lt;k&gt;.svg and the full data in plan.csv.</p>",
+            shown.len()
+        );
+    }
     for f in figures {
+        if let Some(k) = f.name.strip_prefix("bc_layer_") {
+            if !k.parse().is_ok_and(|k: usize| shown.contains(&k)) {
+                continue;
+            }
+        }
         // The SVG documents go in as they are; drop their XML prolog.
         let svg = f.svg.trim_start_matches(|c| c != '<');
         let svg = if svg.starts_with("<?xml") {
@@ -108,4 +142,19 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
         esc(command)
     );
     h
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shown_layers;
+
+    #[test]
+    fn shown_layers_are_evenly_spaced_with_both_ends() {
+        assert_eq!(shown_layers(5, 24), vec![0, 1, 2, 3, 4]);
+        let s = shown_layers(169, 24);
+        assert_eq!(s.len(), 24);
+        assert_eq!((s[0], s[23]), (0, 168));
+        let gaps: Vec<usize> = s.windows(2).map(|w| w[1] - w[0]).collect();
+        assert!(gaps.iter().all(|&g| (7..=8).contains(&g)), "{gaps:?}");
+    }
 }

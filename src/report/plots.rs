@@ -107,6 +107,37 @@ pub fn write_figures(m: &Machine, plan: &Plan, dir: &Path) -> Result<Vec<Figure>
     Ok(figs)
 }
 
+/// Buckets along x a per-waypoint line is drawn with (a few per pixel
+/// column of the chart).
+const LINE_BUCKETS: usize = 400;
+
+/// A line of many points drawn as it looks: per bucket of consecutive
+/// points, the lowest and the highest, in order, so spikes survive and
+/// the figure's size stays bounded (the full data is in plan.csv).
+pub fn envelope(points: &[(f64, f64)], buckets: usize) -> Vec<(f64, f64)> {
+    if points.len() <= 2 * buckets {
+        return points.to_vec();
+    }
+    let per = points.len().div_ceil(buckets);
+    let mut out = Vec::with_capacity(2 * buckets + 1);
+    for chunk in points.chunks(per) {
+        let lo = chunk
+            .iter()
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("chunk");
+        let hi = chunk
+            .iter()
+            .max_by(|a, b| a.1.total_cmp(&b.1))
+            .expect("chunk");
+        let (a, b) = if lo.0 <= hi.0 { (lo, hi) } else { (hi, lo) };
+        out.push(*a);
+        if b != a {
+            out.push(*b);
+        }
+    }
+    out
+}
+
 fn bc_chart<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
     plan: &Plan,
@@ -147,6 +178,7 @@ fn bc_chart<DB: DrawingBackend>(
         } else {
             (-1.0, 1.0)
         };
+        let (inp, pl) = (envelope(&inp, LINE_BUCKETS), envelope(&pl, LINE_BUCKETS));
         let n = idx.len().max(2) as f64;
         let mut c = ChartBuilder::on(&area)
             .margin(8)
@@ -293,4 +325,38 @@ fn collision_chart<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plan: &Plan
         .draw()
         .map_err(err)?;
     root.present().map_err(err)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::envelope;
+
+    #[test]
+    fn envelope_keeps_every_buckets_extremes_and_bounds_the_size() {
+        let pts: Vec<(f64, f64)> = (0..10_000)
+            .map(|i| {
+                (
+                    i as f64,
+                    ((i * 7919) % 1000) as f64 + if i == 4321 { 1e4 } else { 0.0 },
+                )
+            })
+            .collect();
+        let e = envelope(&pts, 100);
+        assert!(e.len() <= 200, "{}", e.len());
+        assert!(e.windows(2).all(|w| w[0].0 < w[1].0), "x order kept");
+        // The plain loop: each bucket's lowest and highest values survive.
+        for chunk in pts.chunks(100) {
+            let lo = chunk.iter().map(|p| p.1).fold(f64::INFINITY, f64::min);
+            let hi = chunk.iter().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+            let kept: Vec<f64> = e
+                .iter()
+                .filter(|p| p.0 >= chunk[0].0 && p.0 <= chunk[chunk.len() - 1].0)
+                .map(|p| p.1)
+                .collect();
+            assert!(kept.contains(&lo) && kept.contains(&hi));
+        }
+        assert!(e.iter().any(|p| p.1 >= 1e4), "the spike is drawn");
+        // Short lines are drawn as they are.
+        assert_eq!(envelope(&pts[..150], 100), pts[..150].to_vec());
+    }
 }
