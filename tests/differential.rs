@@ -86,7 +86,7 @@ fn random_scenes_asymmetric_head() {
 fn verdicts_flip_at_each_poses_own_distance() {
     for seed in 20..23u64 {
         let mut r = rng(seed);
-        let scene = star_scene(&mut r);
+        let scene = star_scene(&mut r, 11, 3.0, [-1.0, 0.8]);
         let base = random_queries(&mut r, &scene, 300);
         let (queries, expected) = margin_boundary_queries(&scene, &base, 1.5);
         assert!(

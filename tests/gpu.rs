@@ -11,7 +11,7 @@ use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
 use maamplan::collide::sample::tilted_queries;
 use maamplan::collide::Backend;
 use maamplan::default_job::box_mesh;
-use maamplan::scene::{HeadConfig, Query, Scene, SceneConfig};
+use maamplan::scene::{Query, Scene, SceneConfig};
 
 /// The GPU backend over `scene`, or `None` (skip) when no adapter exists
 /// and the environment does not require one.
@@ -54,21 +54,7 @@ fn agree_with(
 fn random_scenes_gpu_matches_cpu_and_brute_force() {
     for seed in 0..4u64 {
         let mut r = rng(100 + seed);
-        let tp = random_toolpath(&mut r, 3, 0.7);
-        let radii: Vec<f32> = (0..9)
-            .map(|j| 4.0 + 2.5 * ((j * 5 % 9) as f32 / 9.0))
-            .collect();
-        let head = star_head(&radii, 6.0, 14.0, [1.0, 0.5]);
-        let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
-        let cfg = SceneConfig {
-            head: HeadConfig {
-                tip_clearance: 0.2,
-                grid_resolution: 48,
-            },
-            max_edge: None,
-        };
-        let scene = Scene::build(&tp, &head, &platform, &cfg).unwrap();
-        // Small bindings force the part to be split across several.
+        let scene = star_scene(&mut r, 9, 2.5, [1.0, 0.5]);
         // Small bindings split the part: triangles over 4 bindings, nodes over 2.
         let cap = ((scene.part_tris.len() * 48) as u64 / 3 + 48)
             .max((scene.part_nodes.len() * 32) as u64 * 2 / 3 + 32);
@@ -107,7 +93,7 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
 #[test]
 fn gpu_verdicts_flip_at_each_poses_own_distance() {
     let mut r = rng(120);
-    let scene = star_scene(&mut r);
+    let scene = star_scene(&mut r, 11, 3.0, [-1.0, 0.8]);
     let Some(g) = gpu(&scene, GpuOptions::default()) else {
         return;
     };

@@ -9,7 +9,7 @@ use maamplan::io::plan_csv::read_plan;
 use maamplan::job::Job;
 use maamplan::kinematics::{load_machine, Axes, Machine};
 use maamplan::plan::layer_reading::NearestLayer;
-use maamplan::plan::motion::{tip_subdivision_where, MoveSpec, Prover};
+use maamplan::plan::motion::{MoveSpec, Prover};
 use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
 use serde_json::json;
 use std::path::PathBuf;
@@ -242,12 +242,7 @@ fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) ->
     for ((g, _), h) in items.iter().zip(pose_hits) {
         poses[*g] = Some(h);
     }
-    let (pos, layer_of): (Vec<[f64; 3]>, Vec<usize>) = job
-        .toolpath
-        .iter()
-        .map(|(k, w)| (w.pos.map(|x| x as f64), k))
-        .unzip();
-    let reader = NearestLayer::new(&pos, &layer_of);
+    let reader = NearestLayer::of(&job.toolpath);
     let mut specs = Vec::new();
     let mut owner = Vec::new();
     for g in 1..n {
@@ -258,8 +253,8 @@ fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) ->
             continue;
         }
         let mut from = a;
-        let reads = |p| reader.reads_as(p, layer_of[g]);
-        for to in tip_subdivision_where(m, &a, &b, m.tip_tolerance, reads) {
+        let layer = job.scene.waypoint_layers[g] as usize;
+        for to in reader.split_bead(m, &a, &b, m.tip_tolerance, layer) {
             specs.push(MoveSpec {
                 from,
                 to,

@@ -11,8 +11,10 @@
 //! current layer, material not printed yet. [`NearestLayer`] answers the
 //! question so that split points can be placed where they read right.
 //!
-//! [`tip_subdivision_where`]: super::motion::tip_subdivision_where
 
+use super::motion::tip_subdivision_where;
+use crate::kinematics::{Axes, Machine};
+use crate::toolpath::Toolpath;
 use rstar::primitives::GeomWithData;
 use rstar::RTree;
 
@@ -34,6 +36,23 @@ impl NearestLayer {
         NearestLayer {
             tree: RTree::bulk_load(sites),
         }
+    }
+
+    /// Index the waypoints of `toolpath`.
+    pub fn of(toolpath: &Toolpath) -> Self {
+        let (pos, layer_of): (Vec<[f64; 3]>, Vec<usize>) = toolpath
+            .iter()
+            .map(|(k, w)| (w.pos.map(|x| x as f64), k))
+            .unzip();
+        Self::new(&pos, &layer_of)
+    }
+
+    /// The pieces of the extruding move `a → b` of `layer` as the program
+    /// writes them: [`tip_subdivision_where`] with split tips that read as
+    /// `layer`. The planner proves, the program writes and `check --plan`
+    /// re-checks exactly these.
+    pub fn split_bead(&self, m: &Machine, a: &Axes, b: &Axes, tol: f64, layer: usize) -> Vec<Axes> {
+        tip_subdivision_where(m, a, b, tol, |p| self.reads_as(p, layer))
     }
 
     /// Does `p` read as `layer`: is a waypoint of `layer` at least as near

@@ -41,7 +41,7 @@ use extrusion::Height;
 use graph::{Blocked, Columns, Path};
 use layer_reading::NearestLayer;
 use metrics::{Metrics, SegmentStats};
-use motion::{tip_subdivision_where, MoveSpec, Prover};
+use motion::{MoveSpec, Prover};
 use program::{Assembly, Program, SectionPlan, Stop};
 use rayon::prelude::*;
 use smooth::Smoothing;
@@ -666,9 +666,9 @@ impl<'a> State<'a> {
         let mut b = *b;
         b.c = self.unwound(a.c, b.c);
         let mut from = *a;
-        let layer = self.layer_of[g];
-        let reads = |p| self.reader.reads_as(p, layer);
-        tip_subdivision_where(self.machine, a, &b, self.machine.tip_tolerance, reads)
+        let (m, layer) = (self.machine, self.layer_of[g]);
+        self.reader
+            .split_bead(m, a, &b, m.tip_tolerance, layer)
             .into_iter()
             .map(|to| {
                 let mv = MoveSpec {

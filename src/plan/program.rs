@@ -4,7 +4,7 @@
 //!
 //! A program is a list of [`Step`]s. Printing a section is a run of
 //! [`MoveKind::Print`] moves (each bead segment split by
-//! [`tip_subdivision_where`](super::motion::tip_subdivision_where) where joint-linear interpolation would bow the tip
+//! [`NearestLayer::split_bead`] where joint-linear interpolation would bow the tip
 //! off the bead); getting from one section to the next (or across a break,
 //! or at the start and end) is a [`Travel`]: retract, lift to a safe
 //! height, tool change if the next layer needs the other extruder, travel
@@ -14,7 +14,7 @@
 //! move, before it is given up (and counted).
 
 use super::layer_reading::NearestLayer;
-use super::motion::{tip_subdivision_where, MoveSpec, Prover};
+use super::motion::{MoveSpec, Prover};
 use crate::collide::CollideError;
 use crate::kinematics::{round_angle, round_written, Axes, Machine, ToolSettings};
 
@@ -403,8 +403,9 @@ impl Assembly<'_> {
                     pending.push(self.pending(prog.steps.len(), &t, z_run));
                     prog.steps.push(Step::Travel(t));
                 } else {
-                    let reads = |p| self.reader.reads_as(p, sec.layer);
-                    let pts = tip_subdivision_where(m, &at, &b, self.tip_tolerance, reads);
+                    let pts = self
+                        .reader
+                        .split_bead(m, &at, &b, self.tip_tolerance, sec.layer);
                     let n = pts.len();
                     for (k, to) in pts.into_iter().enumerate() {
                         let f = (k + 1) as f64 / n as f64;

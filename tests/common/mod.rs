@@ -344,17 +344,18 @@ pub fn margin_cases() -> Vec<MarginCase> {
     cases
 }
 
-/// The scene the margin-flip tests share: three random layers, an
-/// asymmetric 11-ray star head off its axis, a box platform, clearance
-/// 0.2 mm.
-pub fn star_scene(r: &mut ChaCha8Rng) -> Scene {
+/// A scene of three random layers, an asymmetric star head of `rays` rays
+/// (radii 4 to 4 + `spread` mm) leaning off its axis by `lean`, a box
+/// platform, clearance 0.2 mm. The margin-flip tests share `(11, 3.0,
+/// [-1.0, 0.8])`.
+pub fn star_scene(r: &mut ChaCha8Rng, rays: usize, spread: f32, lean: [f32; 2]) -> Scene {
     use maamplan::default_job::box_mesh;
     use maamplan::scene::{HeadConfig, SceneConfig};
     let tp = random_toolpath(r, 3, 0.7);
-    let radii: Vec<f32> = (0..11)
-        .map(|j| 4.0 + 3.0 * ((j * 5 % 11) as f32 / 11.0))
+    let radii: Vec<f32> = (0..rays)
+        .map(|j| 4.0 + spread * ((j * 5 % rays) as f32 / rays as f32))
         .collect();
-    let head = star_head(&radii, 6.0, 14.0, [-1.0, 0.8]);
+    let head = star_head(&radii, 6.0, 14.0, lean);
     let platform = box_mesh([-40.0, -40.0, -3.0], [40.0, 40.0, 0.0]);
     let cfg = SceneConfig {
         head: HeadConfig {
