@@ -30,4 +30,5 @@ pub mod kinematics;
 pub mod plan;
 pub mod report;
 pub mod scene;
+pub mod simulate;
 pub mod toolpath;

@@ -7,6 +7,7 @@ mod info;
 mod isoplanar;
 pub mod plan;
 mod progress;
+mod simulate;
 mod slice;
 
 use anyhow::Result;
@@ -47,6 +48,11 @@ enum Command {
     /// Parallel print paths on one curved layer surface, in the direction
     /// that deposits material fastest.
     Isoplanar(isoplanar::IsoplanarArgs),
+    /// Vet any 5-axis G-code before it runs: rebuild the machine's motion,
+    /// check every move against the part printed so far, measure tip
+    /// deviation, tip speed, rotary steps and extrusion, and list each
+    /// problem at its line.
+    Simulate(simulate::SimulateArgs),
 }
 
 /// Inputs shared by every command.
@@ -205,6 +211,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Info => info::run(),
         Command::Slice(a) => slice::run(a),
         Command::Isoplanar(a) => isoplanar::run(a),
+        Command::Simulate(a) => simulate::run(a),
     }
 }
 

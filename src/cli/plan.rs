@@ -111,7 +111,7 @@ pub struct StrictError(pub String);
 
 /// Check before any work that `out` can become the output folder: not a
 /// file, and its nearest existing ancestor a writable folder.
-fn check_output(out: &Path) -> Result<()> {
+pub(crate) fn check_output(out: &Path) -> Result<()> {
     if out.exists() && !out.is_dir() {
         return Err(UsageError(format!(
             "{}: is a file, not a folder: give -o a folder to write the plan into",

@@ -4,6 +4,7 @@
 //! the file, the line (or facet) and what to do about it.
 
 pub mod gcode;
+pub mod gcode_read;
 pub mod mesh;
 pub mod output;
 pub mod plan_csv;

@@ -11,6 +11,7 @@
 //! reports before its optimisation (Fig. 10, 17.74 %; BENCHMARKS.md has the
 //! calibration curve).
 
+use super::post::Post;
 use super::{Configuration, Rotary};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -213,6 +214,10 @@ pub struct Machine {
     /// Moves between printed sections.
     #[serde(default)]
     pub travel: Travel,
+    /// How the controller reads the program (dialect, axis letters, feed
+    /// and extruder modes).
+    #[serde(default)]
+    pub post: Post,
 }
 
 /// The C axis: speed, and an optional range.
@@ -271,6 +276,7 @@ impl Default for Machine {
             tip_tolerance: default_tip_tolerance(),
             support: default_support(),
             travel: Travel::default(),
+            post: Post::default(),
         }
     }
 }
@@ -349,6 +355,7 @@ impl Machine {
         if !(self.travel.home_z >= self.z.min && self.travel.home_z <= self.z.max) {
             return Err("travel.home_z must lie within the z range".into());
         }
+        self.post.validate(self.rotary)?;
         for (name, a) in [
             ("x", self.x),
             ("y", self.y),

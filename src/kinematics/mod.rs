@@ -20,10 +20,12 @@
 //!   mirror as printed (a table axis moving the other way).
 
 pub mod machine_file;
+pub mod post;
 
 pub use machine_file::{
     load_machine, AxisLimits, Extrusion, Machine, MachineError, ToolSettings, Travel,
 };
+pub use post::{Dialect, ExtrusionMode, FeedMode, Interpolation, Post};
 
 use crate::geometry::{Pose, V3};
 use serde::{Deserialize, Serialize};
@@ -287,6 +289,34 @@ impl Machine {
     /// command checks (the machine's own, not a minimal rotation).
     pub fn pose(&self, a: &Axes) -> Pose {
         head_pose(self.rotary, self.tip(a), a.tilt, a.c)
+    }
+
+    /// The head's pose at fraction `t` of the move `a → b` as this
+    /// machine's controller interpolates it ([`Post::interpolation`]):
+    /// joint-linear axes, or the tip straight in the part frame with the
+    /// rotary axes linear.
+    pub fn pose_along(&self, a: &Axes, b: &Axes, t: f64) -> Pose {
+        match self.post.interpolation() {
+            Interpolation::Joint => self.pose(&a.lerp(b, t)),
+            Interpolation::TipLinear => {
+                let (pa, pb) = (self.tip(a), self.tip(b));
+                let p = std::array::from_fn(|k| pa[k] + t * (pb[k] - pa[k]));
+                let r = a.lerp(b, t);
+                head_pose(self.rotary, p, r.tilt, r.c)
+            }
+        }
+    }
+
+    /// The part-frame tip at fraction `t` of the move `a → b` (see
+    /// [`Machine::pose_along`]).
+    pub fn tip_along(&self, a: &Axes, b: &Axes, t: f64) -> [f64; 3] {
+        match self.post.interpolation() {
+            Interpolation::Joint => self.tip(&a.lerp(b, t)),
+            Interpolation::TipLinear => {
+                let (pa, pb) = (self.tip(a), self.tip(b));
+                std::array::from_fn(|k| pa[k] + t * (pb[k] - pa[k]))
+            }
+        }
     }
 }
 

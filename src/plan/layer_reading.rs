@@ -22,7 +22,9 @@ type Site = GeomWithData<[f64; 3], u32>;
 
 /// All waypoints of a toolpath, indexed by position, with their layers.
 pub struct NearestLayer {
+    /// Sites carry the waypoint's global index.
     tree: RTree<Site>,
+    layer_of: Vec<u32>,
 }
 
 impl NearestLayer {
@@ -30,11 +32,12 @@ impl NearestLayer {
     pub fn new(pos: &[[f64; 3]], layer_of: &[usize]) -> Self {
         let sites = pos
             .iter()
-            .zip(layer_of)
-            .map(|(p, &k)| Site::new(*p, k as u32))
+            .enumerate()
+            .map(|(g, p)| Site::new(*p, g as u32))
             .collect();
         NearestLayer {
             tree: RTree::bulk_load(sites),
+            layer_of: layer_of.iter().map(|&k| k as u32).collect(),
         }
     }
 
@@ -64,11 +67,29 @@ impl NearestLayer {
                 Some(d) if d2 > d => return false,
                 _ => nearest = Some(d2),
             }
-            if site.data as usize == layer {
+            if self.layer_of[site.data as usize] as usize == layer {
                 return true;
             }
         }
         false
+    }
+
+    /// The waypoint nearest to `p` (global index; the earliest of equals).
+    pub fn nearest(&self, p: [f64; 3]) -> Option<usize> {
+        let mut best: Option<(f64, u32)> = None;
+        for (site, d2) in self.tree.nearest_neighbor_iter_with_distance_2(p) {
+            match best {
+                Some((bd, _)) if d2 > bd => break,
+                Some((_, bj)) if site.data >= bj => {}
+                _ => best = Some((d2, site.data)),
+            }
+        }
+        best.map(|(_, g)| g as usize)
+    }
+
+    /// The layer of waypoint `g`.
+    pub fn layer(&self, g: usize) -> usize {
+        self.layer_of[g] as usize
     }
 }
 

@@ -120,15 +120,15 @@ pub fn outside_limits(m: &Machine, a: &Axes) -> bool {
 }
 
 /// Largest distance of the tip from the straight segment between its ends
-/// over the joint-linear move `a → b`, sampled as a controller
-/// interpolates (64 steps).
+/// over the move `a → b`, sampled as the machine's controller interpolates
+/// (64 steps; 0 under tool-centre-point control).
 pub fn tip_deviation(m: &Machine, a: &Axes, b: &Axes) -> f64 {
     let (pa, pb) = (m.tip(a), m.tip(b));
     let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
     let sl = (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2]).max(1e-18);
     (1..64)
         .map(|k| {
-            let t = m.tip(&a.lerp(b, k as f64 / 64.0));
+            let t = m.tip_along(a, b, k as f64 / 64.0);
             let d: [f64; 3] = std::array::from_fn(|i| t[i] - pa[i]);
             let u = ((d[0] * seg[0] + d[1] * seg[1] + d[2] * seg[2]) / sl).clamp(0.0, 1.0);
             let q: [f64; 3] = std::array::from_fn(|i| d[i] - u * seg[i]);

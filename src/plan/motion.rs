@@ -34,7 +34,8 @@
 //! only when it cannot be proven at that resolution.
 
 use crate::collide::{Backend, CollideError};
-use crate::kinematics::{Axes, Machine};
+use crate::geometry::Pose;
+use crate::kinematics::{Axes, Interpolation, Machine};
 use crate::scene::Query;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -49,20 +50,29 @@ fn norm(a: [f64; 3]) -> f64 {
     a[0].hypot(a[1]).hypot(a[2])
 }
 
-/// `G = ω² P + 2 ω |Δp|` of the move `a → b` (see the module comment).
+/// `G = ω² P + 2 ω |Δp|` of the move `a → b` (see the module comment);
+/// 0 under tool-centre-point control, where the tip does not bow.
 fn bow(m: &Machine, a: &Axes, b: &Axes) -> (f64, f64, f64) {
     let (pa, pb) = (m.tip(a), m.tip(b));
     let w = a.rotation_to(b);
-    let lever = norm(pa).max(norm(pb)) + m.d.abs() + m.h.abs() + m.r.abs();
     let dp = dist(pa, pb);
+    if m.post.interpolation() == Interpolation::TipLinear {
+        return (0.0, w, dp);
+    }
+    let lever = norm(pa).max(norm(pb)) + m.d.abs() + m.h.abs() + m.r.abs();
     (w * w * lever + 2.0 * w * dp, w, dp)
 }
 
 /// Largest distance any head point within `reach` of the tip travels over
-/// the joint-linear move `a → b` (mm); a fraction `Δt` of the move moves
-/// no point farther than `Δt` times this.
+/// the move `a → b` as the machine interpolates it (mm); a fraction `Δt`
+/// of the move moves no point farther than `Δt` times this. Under
+/// tool-centre-point control the tip moves straight, so the bound is the
+/// tip's travel plus the rotation's sweep of the head: `|Δp| + ω · reach`.
 pub fn displacement_bound(m: &Machine, a: &Axes, b: &Axes, reach: f64) -> f64 {
     let (g, w, dp) = bow(m, a, b);
+    if m.post.interpolation() == Interpolation::TipLinear {
+        return dp + w * reach;
+    }
     let lever = m.d.abs() + m.h.abs() + m.r.abs();
     dp + 0.5 * g + w * g / 8.0 + w * (reach + lever)
 }
@@ -288,8 +298,12 @@ impl<'a> Prover<'a> {
     }
 
     fn query(&self, a: &Axes, cutoff: u32, margin: f64) -> Query {
+        self.query_pose(self.machine.pose(a), cutoff, margin)
+    }
+
+    fn query_pose(&self, pose: Pose, cutoff: u32, margin: f64) -> Query {
         Query {
-            pose: self.machine.pose(a),
+            pose,
             cutoff,
             margin: margin as f32,
         }
@@ -376,8 +390,8 @@ impl<'a> Prover<'a> {
                 let n = ((d / step).ceil() as usize).clamp(1, max_samples + 1);
                 (1..n)
                     .map(|k| {
-                        let a = mv.from.lerp(&mv.to, k as f64 / n as f64);
-                        self.query(&a, mv.cutoff, self.margin)
+                        let pose = self.machine.pose_along(&mv.from, &mv.to, k as f64 / n as f64);
+                        self.query_pose(pose, mv.cutoff, self.margin)
                     })
                     .collect()
             })
@@ -494,8 +508,8 @@ impl<'a> Prover<'a> {
                 .par_iter()
                 .map(|&(i, k, mu)| {
                     let mv = &moves[i];
-                    let a = mv.from.lerp(&mv.to, samples[i][k].t);
-                    self.query(&a, mv.cutoff, mu)
+                    let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
+                    self.query_pose(pose, mv.cutoff, mu)
                 })
                 .collect();
             let hits = self.evaluate(&queries)?;

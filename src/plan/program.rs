@@ -220,6 +220,36 @@ impl Travel {
     }
 }
 
+/// Seconds the written move `from → to` takes on machine `m` — its
+/// planned duration, what a `G93` program's inverse-time feeds encode:
+/// the slowest of `feed` over the part-frame tip path and every axis at
+/// its top speed (C by the written difference); a line that moves only the
+/// extruder takes its `|de|` of filament at `feed`. Under tool-centre-point
+/// control the tip path is measured between the tips as written (rounded
+/// to [`crate::kinematics::DECIMALS`]), so the tip speed the controller
+/// makes is the feed exactly.
+pub fn move_seconds(m: &Machine, from: &Axes, to: &Axes, feed: f64, de: f64) -> f64 {
+    if from == to {
+        return de.abs() / feed;
+    }
+    let (mut pa, mut pb) = (m.tip(from), m.tip(to));
+    if m.post.interpolation() == crate::kinematics::Interpolation::TipLinear {
+        pa = pa.map(round_written);
+        pb = pb.map(round_written);
+    }
+    let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]).hypot(pb[2] - pa[2]);
+    [
+        len / feed,
+        (to.xyz[0] - from.xyz[0]).abs() / m.x.speed,
+        (to.xyz[1] - from.xyz[1]).abs() / m.y.speed,
+        (to.xyz[2] - from.xyz[2]).abs() / m.z.speed,
+        (to.tilt - from.tilt).abs().to_degrees() / m.tilt.speed,
+        (to.c - from.c).abs().to_degrees() / m.c.speed,
+    ]
+    .into_iter()
+    .fold(0.0, f64::max)
+}
+
 /// The point `approach` mm back along the nozzle from the waypoint at `a`.
 pub fn approach_point(m: &Machine, a: &Axes) -> Axes {
     let p = m.tip(a);

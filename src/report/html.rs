@@ -6,6 +6,7 @@ use super::plots::Figure;
 use super::{layer_table, summary_rows};
 use crate::kinematics::Machine;
 use crate::plan::Plan;
+use crate::simulate::Simulation;
 use std::fmt::Write;
 
 fn esc(s: &str) -> String {
@@ -13,6 +14,11 @@ fn esc(s: &str) -> String {
         .replace('<', "&lt;")
         .replace('>', "&gt;")
 }
+
+/// The pages' style sheet.
+const STYLE: &str = "body{font-family:sans-serif;margin:2em;color:#222;max-width:1000px}table{border-collapse:collapse;margin:1em 0}\
+td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}\
+figure{margin:1.5em 0}figcaption{font-weight:bold}pre{background:#f7f7f7;padding:1em;overflow:auto}";
 
 /// What the page says about the run besides the plan.
 pub struct ReportContext<'a> {
@@ -56,10 +62,7 @@ pub fn report_html(
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan report — {}</title>\n<style>\
-body{{font-family:sans-serif;margin:2em;color:#222;max-width:1000px}}table{{border-collapse:collapse;margin:1em 0}}\
-td,th{{border:1px solid #ccc;padding:4px 10px;text-align:right}}th{{background:#f0f0f0}}td:first-child,th:first-child{{text-align:left}}\
-figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;padding:1em;overflow:auto}}</style></head><body>\n",
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan report — {}</title>\n<style>{STYLE}</style></head><body>\n",
         esc(source)
     );
     let _ = writeln!(h, "<h1>Motion plan: {}</h1>", esc(source));
@@ -114,12 +117,77 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
             shown.len()
         );
     }
-    for f in figures {
-        if let Some(k) = f.name.strip_prefix("bc_layer_") {
-            if !k.parse().is_ok_and(|k: usize| shown.contains(&k)) {
-                continue;
-            }
+    embed_figures(&mut h, figures, |f| match f.name.strip_prefix("bc_layer_") {
+        Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
+        None => true,
+    });
+    let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
+    let _ = writeln!(
+        h,
+        "<h2>Command</h2><pre>{}</pre>\n</body></html>",
+        esc(command)
+    );
+    h
+}
+
+/// The page of a simulation: its numbers, its problems at their lines,
+/// the plots, the machine and the command.
+pub fn simulation_html(
+    ctx: &ReportContext,
+    m: &Machine,
+    sim: &Simulation,
+    figures: &[Figure],
+) -> String {
+    let (source, command) = (ctx.source, ctx.command);
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan simulation — {}</title>\n<style>{STYLE}</style></head><body>\n",
+        esc(source)
+    );
+    let _ = writeln!(h, "<h1>Simulation: {}</h1>", esc(source));
+    let _ = writeln!(h, "<h2>Summary</h2><table id=\"summary\">");
+    let summary = serde_json::to_value(&sim.summary).unwrap_or_default();
+    if let Some(obj) = summary.as_object() {
+        for (k, v) in obj {
+            let v = match v.as_f64() {
+                Some(x) if v.is_f64() => format!("{x:.4}"),
+                _ => v.to_string(),
+            };
+            let _ = writeln!(h, "<tr><td>{}</td><td>{v}</td></tr>", esc(k));
         }
+    }
+    let _ = writeln!(h, "</table>");
+    let _ = writeln!(
+        h,
+        "<h2>Problems</h2><p>{} in all{}.</p><table id=\"problems\"><tr><th>line</th><th>problem</th><th>value</th><th>layer</th></tr>",
+        sim.problems.len(),
+        if sim.problems.len() > 500 { "; the first 500 here, every one in report.json" } else { "" }
+    );
+    for p in sim.problems.iter().take(500) {
+        let _ = writeln!(
+            h,
+            "<tr><td>{}</td><td>{:?}</td><td>{:.4}</td><td>{}</td></tr>",
+            p.line,
+            p.kind,
+            p.value,
+            p.layer.map_or(String::new(), |l| l.to_string())
+        );
+    }
+    let _ = writeln!(h, "</table>\n<h2>Plots</h2>");
+    embed_figures(&mut h, figures, |_| true);
+    let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
+    let _ = writeln!(
+        h,
+        "<h2>Command</h2><pre>{}</pre>\n</body></html>",
+        esc(command)
+    );
+    h
+}
+
+/// Each figure of `figures` that `show` keeps, inline.
+fn embed_figures(h: &mut String, figures: &[Figure], show: impl Fn(&Figure) -> bool) {
+    for f in figures.iter().filter(|f| show(f)) {
         // The SVG documents go in as they are; drop their XML prolog.
         let svg = f.svg.trim_start_matches(|c| c != '<');
         let svg = if svg.starts_with("<?xml") {
@@ -135,13 +203,6 @@ figure{{margin:1.5em 0}}figcaption{{font-weight:bold}}pre{{background:#f7f7f7;pa
             svg
         );
     }
-    let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
-    let _ = writeln!(
-        h,
-        "<h2>Command</h2><pre>{}</pre>\n</body></html>",
-        esc(command)
-    );
-    h
 }
 
 #[cfg(test)]

@@ -8,6 +8,7 @@
 use super::{layer_table, tip_speeds};
 use crate::kinematics::Machine;
 use crate::plan::Plan;
+use crate::simulate::{MoveReport, Simulation};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -324,6 +325,180 @@ fn collision_chart<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plan: &Plan
         .border_style(BLACK)
         .draw()
         .map_err(err)?;
+    root.present().map_err(err)
+}
+
+/// The figures of a simulation ([`crate::simulate`]): tip speed of the
+/// extruding lines against the extruder's range, tip deviation and rotary
+/// step along the program, colliding lines per layer.
+pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, String> {
+    fonts();
+    let ext: Vec<&MoveReport> = sim.moves.iter().filter(|r| r.extrudes).collect();
+    let along = |f: &dyn Fn(&MoveReport) -> f64| -> Vec<(f64, f64)> {
+        ext.iter().enumerate().map(|(k, r)| (k as f64, f(r))).collect()
+    };
+    let speeds: Vec<f64> = ext.iter().map(|r| r.tip_speed).collect();
+    let dev = along(&|r| r.deviation_mm);
+    let step = along(&|r| r.rotary_step_deg);
+    let layers = sim.moves.iter().filter_map(|r| r.layer).max().map_or(0, |l| l + 1);
+    let mut per_layer = vec![0usize; layers.max(1)];
+    for r in sim.moves.iter().filter(|r| r.collides) {
+        per_layer[r.layer.unwrap_or(0)] += 1;
+    }
+    let mut out = Vec::new();
+    let mut svg = |name: &str, title: &str, draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult| -> DrawResult {
+        let mut s = String::new();
+        {
+            let root = SVGBackend::with_string(&mut s, SIZE).into_drawing_area();
+            draw(root)?;
+        }
+        out.push(Figure {
+            name: name.into(),
+            title: title.into(),
+            svg: s,
+        });
+        Ok(())
+    };
+    svg("tip_speed", "Tip speed per extruding line", &|root| {
+        histogram(root, "tip speed over the part (mm/s)", &speeds, m.tip_speed)
+    })?;
+    svg("tip_deviation", "Tip deviation from the bead per extruding line", &|root| {
+        line_chart(root, "tip deviation (mm)", &dev, Some(m.tip_tolerance))
+    })?;
+    svg("rotary_step", "Rotary step per extruding line", &|root| {
+        line_chart(root, "|Δtilt| + |ΔC| (°)", &step, Some(crate::simulate::measure::SWING_DEG))
+    })?;
+    svg("collisions", "Colliding lines per layer", &|root| {
+        bars(root, "colliding lines per layer", &per_layer)
+    })?;
+    Ok(out)
+}
+
+fn histogram<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    caption: &str,
+    v: &[f64],
+    [vmin, vmax]: [f64; 2],
+) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
+    let top = v.iter().copied().fold(vmax * 1.2, f64::max);
+    let bins = 60usize;
+    let w = top / bins as f64;
+    let mut h = vec![0usize; bins];
+    for &x in v {
+        h[((x / w) as usize).min(bins - 1)] += 1;
+    }
+    let ymax = h.iter().copied().max().unwrap_or(1).max(1) as f64;
+    let mut c = ChartBuilder::on(&root)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .caption(caption, ("sans-serif", 18))
+        .build_cartesian_2d(0.0..top, (0.5..ymax * 2.0).log_scale())
+        .map_err(err)?;
+    c.configure_mesh()
+        .x_desc("mm/s")
+        .y_desc("lines")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    c.draw_series(
+        [vmin, vmax].map(|v| PathElement::new([(v, 0.5), (v, ymax * 2.0)], RED.stroke_width(2))),
+    )
+    .map_err(err)?
+    .label(format!("[v_min, v_max] = [{vmin}, {vmax}]"))
+    .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED));
+    c.draw_series(h.iter().enumerate().filter(|(_, &n)| n > 0).map(|(b, &n)| {
+        let x0 = b as f64 * w;
+        Rectangle::new([(x0, 0.5), (x0 + 0.8 * w, n as f64)], PLAN.filled())
+    }))
+    .map_err(err)?
+    .label("program")
+    .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], PLAN.filled()));
+    c.configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)
+}
+
+fn line_chart<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    caption: &str,
+    pts: &[(f64, f64)],
+    limit: Option<f64>,
+) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
+    let n = pts.len().max(2) as f64;
+    let hi = pts
+        .iter()
+        .map(|p| p.1)
+        .chain(limit)
+        .fold(0.0, f64::max)
+        .max(1e-3)
+        * 1.1;
+    let mut c = ChartBuilder::on(&root)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(70)
+        .caption(caption, ("sans-serif", 18))
+        .build_cartesian_2d(0.0..n, 0.0..hi)
+        .map_err(err)?;
+    c.configure_mesh()
+        .x_desc("extruding line")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    if let Some(l) = limit {
+        c.draw_series(std::iter::once(PathElement::new(
+            [(0.0, l), (n, l)],
+            RED.stroke_width(2),
+        )))
+        .map_err(err)?
+        .label(format!("limit {l}"))
+        .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED));
+    }
+    c.draw_series(LineSeries::new(
+        envelope(pts, LINE_BUCKETS),
+        PLAN.stroke_width(1),
+    ))
+    .map_err(err)?
+    .label("program")
+    .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], PLAN));
+    c.configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)?;
+    root.present().map_err(err)
+}
+
+fn bars<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, caption: &str, v: &[usize]) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
+    let ymax = v.iter().copied().max().unwrap_or(0).max(1) as f64 * 1.15;
+    let n = v.len().max(1) as f64;
+    let mut c = ChartBuilder::on(&root)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(60)
+        .caption(caption, ("sans-serif", 18))
+        .build_cartesian_2d(0.0..n, 0.0..ymax)
+        .map_err(err)?;
+    c.configure_mesh()
+        .x_desc("layer")
+        .y_desc("lines")
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(err)?;
+    c.draw_series(v.iter().enumerate().map(|(k, &y)| {
+        Rectangle::new(
+            [(k as f64 + 0.1, 0.0), (k as f64 + 0.9, y as f64)],
+            PLAN.filled(),
+        )
+    }))
+    .map_err(err)?;
     root.present().map_err(err)
 }
 

@@ -108,6 +108,30 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
     Ok(StampedBvh { nodes, triangles })
 }
 
+/// Recompute every node's minimum stamp from `tris` (after the
+/// triangles' stamps changed; the tree itself is kept).
+pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
+    let mut stack = vec![(0usize, false)];
+    while let Some((i, children_done)) = stack.pop() {
+        match nodes[i].leaf_range() {
+            Some((first, count)) => {
+                nodes[i].min_stamp = (first..first + count)
+                    .map(|t| tris[t as usize].stamp)
+                    .min()
+                    .unwrap_or(u32::MAX);
+            }
+            None => {
+                let l = nodes[i].packed as usize;
+                if children_done {
+                    nodes[i].min_stamp = nodes[l].min_stamp.min(nodes[l + 1].min_stamp);
+                } else {
+                    stack.extend([(i, true), (l, false), (l + 1, false)]);
+                }
+            }
+        }
+    }
+}
+
 /// Subtrees of at most this many triangles get the exact radius; above,
 /// a node's radius is the tighter of its box's and its children's spheres'
 /// bound (a descent from every node would cost O(n log n) vertex visits).

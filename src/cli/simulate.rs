@@ -1,0 +1,309 @@
+//! `maamplan simulate`: a G-code program (ours in any dialect, or anyone's
+//! in the same vocabulary) read back, checked and measured as the machine
+//! would run it; the wiring of [`maamplan::simulate`]'s stages.
+
+use super::plan::check_output;
+use super::progress::Reporter;
+use super::{BackendKind, SceneArgs, UsageError};
+use anyhow::{Context, Result};
+use clap::Args;
+use maamplan::io::gcode_read::read_program;
+use maamplan::io::mesh::load_mesh;
+use maamplan::io::output::write_folder_atomic;
+use maamplan::kinematics::{load_machine, Machine};
+use maamplan::plan::{head_reach, PlanOptions, Progress};
+use maamplan::scene::{HeadConfig, Scene, SceneConfig};
+use maamplan::simulate::{self, ProblemKind, Simulation};
+use maamplan::toolpath::Toolpath;
+use serde_json::json;
+use std::fmt::Write;
+use std::path::PathBuf;
+use std::time::Instant;
+
+/// Arguments of `simulate`.
+#[derive(Args, Debug)]
+pub struct SimulateArgs {
+    /// The program (G-code) to simulate.
+    gcode: PathBuf,
+    #[command(flatten)]
+    scene: SceneArgs,
+    /// Machine file: kinematics, speeds, tip-speed range and the `[post]`
+    /// dialect (axis letters and signs) the program is read with
+    /// [default: the built-in machine, the data set's printer].
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// Collision evaluator.
+    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
+    backend: BackendKind,
+    /// Safety margin: a move collides when anything comes closer than this
+    /// to the head (mm) [default: the machine file's, 0.05; 0 = touching].
+    #[arg(long)]
+    margin: Option<f64>,
+    /// Output folder: report.json, moves.csv and report.html are replaced
+    /// in it [default: print the summary only].
+    #[arg(short, long)]
+    out: Option<PathBuf>,
+    /// Skip report.html.
+    #[arg(long)]
+    no_plots: bool,
+    /// Print only errors.
+    #[arg(short, long)]
+    quiet: bool,
+    /// Print a line per stage and the first problems of each kind.
+    #[arg(short, long, conflicts_with = "quiet")]
+    verbose: bool,
+}
+
+/// The toolpath and scene: the job's, or (no TOOLPATH) the platform alone.
+fn load_scene(a: &SimulateArgs) -> Result<(String, Toolpath, Scene)> {
+    if a.scene.toolpath.is_some() {
+        let job = a.scene.load()?;
+        return Ok((job.source, job.toolpath, job.scene));
+    }
+    let Some(platform) = &a.scene.platform else {
+        return Err(UsageError(
+            "simulate without a TOOLPATH checks the program against the platform only: give --platform (and --head), or the toolpath it prints".into(),
+        )
+        .into());
+    };
+    let head = match &a.scene.head {
+        Some(p) => load_mesh(p)?,
+        None => maamplan::default_job::cone_head(20.0, 20.0, 30.0, 64),
+    };
+    let cfg = SceneConfig {
+        head: HeadConfig {
+            tip_clearance: a.scene.clearance,
+            ..HeadConfig::default()
+        },
+        max_edge: None,
+    };
+    let tp = Toolpath::default();
+    let scene = Scene::build(&tp, &head, &load_mesh(platform)?, &cfg)?;
+    Ok(("platform only".into(), tp, scene))
+}
+
+/// Run `simulate`.
+pub fn run(a: SimulateArgs) -> Result<()> {
+    let t0 = Instant::now();
+    let machine = match &a.machine {
+        Some(p) => load_machine(p)?,
+        None => Machine::default(),
+    };
+    let margin = a.margin.unwrap_or(machine.margin);
+    if !(margin.is_finite() && (0.0..10.0).contains(&margin)) {
+        return Err(UsageError("--margin must be between 0 and 10 mm".into()).into());
+    }
+    if let Some(out) = &a.out {
+        check_output(out)?;
+    }
+    let text = std::fs::read_to_string(&a.gcode).map_err(|e| {
+        UsageError(format!(
+            "{}: cannot read the program ({e}): check the path",
+            a.gcode.display()
+        ))
+    })?;
+    let moves = read_program(&text, &machine).map_err(|e| {
+        UsageError(format!(
+            "{}:{}: {}",
+            a.gcode.display(),
+            e.line,
+            e.msg
+        ))
+    })?;
+    if moves.is_empty() {
+        return Err(UsageError(format!(
+            "{}: no G0/G1 motion found: is this a G-code program?",
+            a.gcode.display()
+        ))
+        .into());
+    }
+    let show = Reporter::new(a.quiet, a.verbose);
+    show.begin("loading");
+    let (source, toolpath, scene) = load_scene(&a)?;
+    show.stage_line("load", t0.elapsed().as_secs_f64(), None);
+
+    let t1 = Instant::now();
+    let timeline = simulate::timeline(&machine, &toolpath, &moves);
+    let scene = scene.restamped(|s| timeline.stamp(s));
+    show.stage_line("timeline", t1.elapsed().as_secs_f64(), None);
+
+    show.begin("checking");
+    let t2 = Instant::now();
+    let backend = a.backend.build(&scene, !a.quiet)?;
+    let tick = |done: u64, total: u64| show.on(Progress::Queries { done, total });
+    let (collides, queries) = simulate::check_moves(
+        &machine,
+        backend.as_ref(),
+        head_reach(&scene),
+        margin,
+        PlanOptions::default().edge_step,
+        &moves,
+        &timeline.cutoffs,
+        Some(&tick),
+    )?;
+    show.stage_line("check", t2.elapsed().as_secs_f64(), Some(queries));
+
+    let t3 = Instant::now();
+    let sim = simulate::report(&machine, &moves, &timeline, &collides, queries, margin);
+    show.stage_line("measure", t3.elapsed().as_secs_f64(), None);
+
+    let command = std::env::args().collect::<Vec<_>>().join(" ");
+    let mut written = Vec::new();
+    if let Some(out) = &a.out {
+        let layer_names: Vec<String> = toolpath.layers.iter().map(|l| l.name.clone()).collect();
+        let doc = json!({
+            "gcode": a.gcode.display().to_string(),
+            "toolpath": source,
+            "backend": backend.name(),
+            "machine": machine,
+            "summary": sim.summary,
+            "problems": sim.problems.iter().map(|p| json!({
+                "line": p.line,
+                "kind": p.kind,
+                "value": p.value,
+                "layer": p.layer.map(|l| layer_names.get(l).cloned().unwrap_or_default()),
+            })).collect::<Vec<_>>(),
+            "seconds": t0.elapsed().as_secs_f64(),
+            "command": command,
+        });
+        let mut files = vec![
+            (PathBuf::from("report.json"), super::json_bytes(&doc)?),
+            (PathBuf::from("moves.csv"), moves_csv(&sim).into_bytes()),
+        ];
+        if !a.no_plots {
+            let figs = maamplan::report::plots::simulation_figures(&machine, &sim)
+                .map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+            let html = maamplan::report::html::simulation_html(
+                &maamplan::report::html::ReportContext {
+                    source: &format!("{} ({})", a.gcode.display(), source),
+                    command: &command,
+                    flipped_layers: &[],
+                },
+                &machine,
+                &sim,
+                &figs,
+            );
+            files.push((PathBuf::from("report.html"), html.into_bytes()));
+        }
+        written = files.iter().map(|f| f.0.display().to_string()).collect();
+        write_folder_atomic(out, &files)
+            .with_context(|| format!("{}: cannot write the report", out.display()))?;
+    }
+    show.finish();
+    if a.quiet {
+        return Ok(());
+    }
+    print!("{}", summary_text(&sim, a.verbose));
+    let s = &sim.summary;
+    println!(
+        "{}: {} moves ({} extruding) simulated against {} in {:.2} s (backend {}){}",
+        a.gcode.display(),
+        s.moves,
+        s.extruding_moves,
+        source,
+        t0.elapsed().as_secs_f64(),
+        backend.name(),
+        match &a.out {
+            Some(o) => format!("; wrote {}/{}", o.display(), written.join(", ")),
+            None => String::new(),
+        }
+    );
+    Ok(())
+}
+
+/// The terminal summary: the numbers, then the first problems of each kind
+/// (all of them with `verbose`).
+fn summary_text(sim: &Simulation, verbose: bool) -> String {
+    let s = &sim.summary;
+    let mut t = String::new();
+    let _ = writeln!(
+        t,
+        "colliding moves           {:>8} of {} checked (margin {} mm)",
+        s.colliding_moves, s.checked_moves, s.margin
+    );
+    let _ = writeln!(
+        t,
+        "tip deviation             {:>8.3} mm max, {} extruding moves over the tolerance",
+        s.tip_deviation_max_mm, s.tip_deviation_over_tolerance
+    );
+    let _ = writeln!(
+        t,
+        "tip-speed violations      {:>8.3} % of extruding moves ({:.3} % of the length)",
+        s.speed_violation_pct + 0.0, s.speed_violation_pct_length + 0.0
+    );
+    let _ = writeln!(
+        t,
+        "largest rotary step       {:>8.1}° while extruding, {} swings over {}°",
+        s.rotary_step_max_deg,
+        s.swings,
+        simulate::measure::SWING_DEG
+    );
+    let _ = writeln!(
+        t,
+        "travels                   {:>8} (largest C turn {:.1}°, {} over 180°)",
+        s.travels, s.travel_c_max_deg, s.long_travel_turns
+    );
+    let _ = writeln!(
+        t,
+        "extrusion per mm          {:>8.4} median, {:.4} max, {} blobs",
+        s.e_per_mm_median, s.e_per_mm_max, s.blobs
+    );
+    let _ = writeln!(
+        t,
+        "printed waypoints         {:>8} of {}; program {:.0} s",
+        s.printed_waypoints, s.waypoints, s.seconds
+    );
+    for kind in [
+        ProblemKind::Collision,
+        ProblemKind::TipDeviation,
+        ProblemKind::TipSpeed,
+        ProblemKind::Swing,
+        ProblemKind::Blob,
+        ProblemKind::LongTravelTurn,
+    ] {
+        let of: Vec<_> = sim.problems.iter().filter(|p| p.kind == kind).collect();
+        if of.is_empty() {
+            continue;
+        }
+        let shown = if verbose { of.len() } else { of.len().min(5) };
+        let lines: Vec<String> = of[..shown].iter().map(|p| p.line.to_string()).collect();
+        let _ = writeln!(
+            t,
+            "{:?} at line{} {}{}",
+            kind,
+            if of.len() > 1 { "s" } else { "" },
+            lines.join(", "),
+            if shown < of.len() {
+                format!(" … ({} in all, report.json lists them)", of.len())
+            } else {
+                String::new()
+            }
+        );
+    }
+    t
+}
+
+/// Every measured line as CSV.
+fn moves_csv(sim: &Simulation) -> String {
+    let mut t = String::from(
+        "line,extrudes,tcp,layer,seconds,length_mm,tip_speed,deviation_mm,rotary_step_deg,e_per_mm,collides\n",
+    );
+    for r in &sim.moves {
+        let _ = writeln!(
+            t,
+            "{},{},{},{},{:.6},{:.4},{:.4},{:.4},{:.3},{:.5},{}",
+            r.line,
+            r.extrudes as u8,
+            r.tcp as u8,
+            r.layer.map_or(String::new(), |l| l.to_string()),
+            r.seconds,
+            r.length_mm,
+            r.tip_speed,
+            r.deviation_mm,
+            r.rotary_step_deg,
+            r.e_per_mm,
+            r.collides as u8
+        );
+    }
+    t
+}

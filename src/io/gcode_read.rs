@@ -1,0 +1,399 @@
+//! Reading a 5-axis program back as the motion a controller makes: ours in
+//! any dialect of [`crate::kinematics::Post`], or anyone's in the same
+//! vocabulary (the data set's reference G-code is the joint dialect).
+//!
+//! The reader keeps the controller's state line by line: machine axes,
+//! extruder position (`M82`/`M83`, `G92 E`), feed and feed mode
+//! (`G94`/`G93`), tool (`T<n>`: the support tool's nozzle offset is added
+//! back to joint-dialect X/Y), and tool-centre-point control (`G43.4`/`G49`,
+//! `TRAORI`/`TRAFOOF`: X Y Z are then the tip in the part frame, turned
+//! into machine axes by inverse kinematics). Rotary axes are read with the
+//! machine file's letters and signs. Anything it cannot be sure of is an
+//! error naming the line: an unknown word or code, a value that is not a
+//! finite number, a move before every axis has a position (home with
+//! `G28 X… Y… Z… B… C…` or give every axis on the first move).
+
+use crate::kinematics::{linear_axes, tip_position, Axes, Machine};
+
+/// A line the reader cannot take.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("line {line}: {msg}")]
+pub struct GcodeError {
+    /// 1-based line number.
+    pub line: usize,
+    /// What is wrong and what to do.
+    pub msg: String,
+}
+
+/// One motion line of a program, as a controller executes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GcodeMove {
+    /// 1-based line number.
+    pub line: usize,
+    /// `G1` (true) or `G0`.
+    pub linear: bool,
+    /// Machine axes before the line: `[X, Y, Z, tilt°, C°]` (the planner's
+    /// convention: signs undone, nozzle offset added back).
+    pub from: [f64; 5],
+    /// Machine axes after it.
+    pub to: [f64; 5],
+    /// Extruder position after it (absolute, after any `G92`).
+    pub e: f64,
+    /// Extrusion over the line (mm of filament; negative: retract).
+    pub de: f64,
+    /// Feed in force: mm/min, or 1/min under `G93`.
+    pub f: f64,
+    /// `F` is an inverse time (`G93`).
+    pub inverse_time: bool,
+    /// The controller moves the tip straight in the part frame
+    /// (tool-centre-point control on).
+    pub tcp: bool,
+    /// Active tool number (0 before any `T`).
+    pub tool: u32,
+}
+
+impl GcodeMove {
+    /// Does the line move any axis?
+    pub fn moves_axes(&self) -> bool {
+        self.from != self.to
+    }
+
+    /// Does the machine extrude while making this move (a `G1` that moves
+    /// and advances the filament)?
+    pub fn extrudes(&self) -> bool {
+        self.linear && self.de > 1e-9 && self.moves_axes()
+    }
+}
+
+/// The axes of a parsed `[X, Y, Z, tilt°, C°]`.
+pub fn axes_of(v: &[f64; 5]) -> Axes {
+    Axes {
+        xyz: [v[0], v[1], v[2]],
+        tilt: v[3].to_radians(),
+        c: v[4].to_radians(),
+    }
+}
+
+/// `a`'s axes as a parsed `[X, Y, Z, tilt°, C°]` (the inverse of [`axes_of`]).
+pub fn axes_vector(a: &Axes) -> [f64; 5] {
+    [
+        a.xyz[0],
+        a.xyz[1],
+        a.xyz[2],
+        a.tilt.to_degrees(),
+        a.c.to_degrees(),
+    ]
+}
+
+/// Codes that do not move the machine and are taken as they are.
+fn harmless(code: &str) -> bool {
+    matches!(
+        code,
+        "G4" | "G04"
+            | "G17"
+            | "G21"
+            | "G90"
+            | "G40"
+            | "G80"
+            | "G53"
+            | "G54"
+            | "G64"
+            | "G61"
+            | "TRAFOOF"
+    ) || code.starts_with('M')
+}
+
+/// The controller state while reading.
+struct State {
+    /// Machine axes; `None` until known.
+    axes: [Option<f64>; 5],
+    e: f64,
+    f: f64,
+    relative_e: bool,
+    inverse_time: bool,
+    tcp: bool,
+    tool: u32,
+}
+
+/// Every motion line of `text` for machine `m` (dialect letters, signs and
+/// kinematics from `m`; tool-centre-point control and modes as the program
+/// switches them). Lines that neither move an axis nor the extruder are
+/// left out.
+pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeError> {
+    let post = &m.post;
+    let (tl, cl) = (post.tilt_letter(m.rotary), post.c_letter());
+    let mut st = State {
+        axes: [None; 5],
+        e: 0.0,
+        f: 1500.0,
+        relative_e: false,
+        inverse_time: false,
+        tcp: false,
+        tool: 0,
+    };
+    let mut out = Vec::new();
+    for (n, raw) in text.lines().enumerate() {
+        let line = n + 1;
+        let err = |msg: String| GcodeError { line, msg };
+        let Some((code, rest)) = tokens(raw).map_err(err)? else {
+            continue;
+        };
+        let mut vals: [Option<f64>; 7] = [None; 7]; // X Y Z tilt C E F
+        for &(k, x) in &rest {
+            let slot = match k {
+                'X' => 0,
+                'Y' => 1,
+                'Z' => 2,
+                c if c == tl => 3,
+                c if c == cl => 4,
+                'E' => 5,
+                'F' => 6,
+                'S' | 'P' | 'H' | 'T' | 'D' => continue,
+                c => {
+                    return Err(err(format!(
+                        "unknown word '{c}' in `{}`: this machine's axes are X Y Z {tl} {cl} (set post.tilt_letter / post.c_letter in the machine file)",
+                        raw.trim()
+                    )))
+                }
+            };
+            vals[slot] = Some(x);
+        }
+        let code = code.as_str();
+        match code {
+            "M82" => st.relative_e = false,
+            "M83" => st.relative_e = true,
+            "G93" => st.inverse_time = true,
+            "G94" => st.inverse_time = false,
+            "G43.4" | "TRAORI" => st.tcp = true,
+            "G49" | "TRAFOOF" => st.tcp = false,
+            "G92" => {
+                if vals[..5].iter().any(|v| v.is_some()) {
+                    return Err(err(
+                        "G92 on a motion axis shifts the coordinates, which the simulator does not follow: use G92 E only".into(),
+                    ));
+                }
+                if let Some(x) = vals[5] {
+                    st.e = x;
+                }
+            }
+            "G28" => {
+                // Homing: machine coordinates in every mode.
+                for k in 0..5 {
+                    if let Some(x) = vals[k] {
+                        st.axes[k] = Some(if k == 3 {
+                            x * post.tilt_sign
+                        } else if k == 4 {
+                            x * post.c_sign
+                        } else {
+                            x
+                        });
+                    }
+                }
+            }
+            "G0" | "G1" | "G00" | "G01" => {
+                if let Some(x) = vals[6] {
+                    if x <= 0.0 {
+                        return Err(err(format!("feed F{x} must be positive")));
+                    }
+                    st.f = x;
+                }
+                let moves_axis = vals[..5].iter().any(|v| v.is_some());
+                let de = match vals[5] {
+                    Some(x) if st.relative_e => x,
+                    Some(x) => x - st.e,
+                    None => 0.0,
+                };
+                if !moves_axis {
+                    st.e += de;
+                    if de != 0.0 {
+                        if let Some(from) = known(&st.axes) {
+                            out.push(GcodeMove {
+                                line,
+                                linear: code.ends_with('1'),
+                                from,
+                                to: from,
+                                e: st.e,
+                                de,
+                                f: st.f,
+                                inverse_time: st.inverse_time,
+                                tcp: st.tcp,
+                                tool: st.tool,
+                            });
+                        }
+                    }
+                    continue;
+                }
+                let Some(from) = known(&st.axes) else {
+                    let missing: Vec<char> = ['X', 'Y', 'Z', tl, cl]
+                        .into_iter()
+                        .zip(st.axes.iter().zip(&vals[..5]))
+                        .filter(|(_, (a, v))| a.is_none() && v.is_none())
+                        .map(|(c, _)| c)
+                        .collect();
+                    if !missing.is_empty() {
+                        return Err(err(format!(
+                            "{code} before every axis has a position ({} unknown): home with G28 naming every axis, or give every axis on the first move",
+                            missing.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", ")
+                        )));
+                    }
+                    // Every axis is given on this first move: it starts there.
+                    let to = target(m, &st, &vals, None);
+                    st.axes = to.map(Some);
+                    st.e += de;
+                    continue;
+                };
+                let to = target(m, &st, &vals, Some(from));
+                st.axes = to.map(Some);
+                st.e += de;
+                out.push(GcodeMove {
+                    line,
+                    linear: code.ends_with('1'),
+                    from,
+                    to,
+                    e: st.e,
+                    de,
+                    f: st.f,
+                    inverse_time: st.inverse_time,
+                    tcp: st.tcp,
+                    tool: st.tool,
+                });
+            }
+            c if c.starts_with('T') && c[1..].chars().all(|d| d.is_ascii_digit()) && c.len() > 1 => {
+                st.tool = c[1..].parse().unwrap_or(0);
+            }
+            c if harmless(c) => {}
+            c => {
+                return Err(err(format!(
+                    "unsupported code {c} in `{}`: the simulator follows G0/G1 moves (G90, absolute), G28, G92 E, G93/G94, G43.4/G49, TRAORI/TRAFOOF, M82/M83 and T<n>",
+                    raw.trim()
+                )))
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn known(axes: &[Option<f64>; 5]) -> Option<[f64; 5]> {
+    let mut v = [0.0; 5];
+    for k in 0..5 {
+        v[k] = axes[k]?;
+    }
+    Some(v)
+}
+
+/// The machine axes after a motion line with words `vals`, from `from`
+/// (`None`: every axis is given).
+fn target(m: &Machine, st: &State, vals: &[Option<f64>; 7], from: Option<[f64; 5]>) -> [f64; 5] {
+    let post = &m.post;
+    let from = from.unwrap_or([0.0; 5]);
+    let tilt = vals[3].map_or(from[3], |x| x * post.tilt_sign);
+    let c = vals[4].map_or(from[4], |x| x * post.c_sign);
+    let (tr, cr) = (tilt.to_radians(), c.to_radians());
+    if st.tcp {
+        // The words are the tip in the part frame.
+        let cur = tip_position(
+            m.configuration,
+            m.rotary,
+            m.offsets(),
+            [from[0], from[1], from[2]],
+            from[3].to_radians(),
+            from[4].to_radians(),
+        );
+        let p = std::array::from_fn(|k| vals[k].unwrap_or(cur[k]));
+        let xyz = linear_axes(m.configuration, m.rotary, m.offsets(), p, tr, cr);
+        return [xyz[0], xyz[1], xyz[2], tilt, c];
+    }
+    let off = if st.tool == m.support.tool && st.tool != m.extrusion.tool {
+        m.support.offset
+    } else {
+        [0.0; 2]
+    };
+    let x = vals[0].map_or(from[0], |x| x + off[0]);
+    let y = vals[1].map_or(from[1], |y| y + off[1]);
+    let z = vals[2].unwrap_or(from[2]);
+    [x, y, z, tilt, c]
+}
+
+/// The words of one line, upper-cased: the code (`G1`, `M104`, `T2`,
+/// `TRAORI`) and its `(letter, value)` pairs. Comments (`;…`, `(…)`) and a
+/// leading `N` line number are dropped.
+type Words = (String, Vec<(char, f64)>);
+
+fn tokens(raw: &str) -> Result<Option<Words>, String> {
+    let mut s = String::with_capacity(raw.len());
+    let mut depth = 0;
+    for ch in raw.chars() {
+        match ch {
+            ';' if depth == 0 => break,
+            '(' => depth += 1,
+            ')' if depth > 0 => depth -= 1,
+            _ if depth == 0 => s.push(ch),
+            _ => {}
+        }
+    }
+    let mut parts = s.split_whitespace().peekable();
+    if parts.peek().is_some_and(|w| w.starts_with(['N', 'n'])) {
+        parts.next();
+    }
+    let Some(code) = parts.next() else {
+        return Ok(None);
+    };
+    let code = code.to_ascii_uppercase();
+    let is_word = |w: &str| w.len() > 1 && w.as_bytes()[0].is_ascii_alphabetic();
+    if !(is_word(&code) || code == "TRAORI" || code == "TRAFOOF") {
+        return Err(format!("`{}` is not a G-code word", raw.trim()));
+    }
+    let mut words = Vec::new();
+    for w in parts {
+        let mut chars = w.chars();
+        let k = chars.next().unwrap_or(' ').to_ascii_uppercase();
+        let num = chars.as_str();
+        let x: f64 = num
+            .parse()
+            .ok()
+            .filter(|x: &f64| x.is_finite() && k.is_ascii_alphabetic())
+            .ok_or_else(|| format!("'{w}' is not a letter and a finite number"))?;
+        words.push((k, x));
+    }
+    Ok(Some((code, words)))
+}
+
+/// The machine axes of every `G1 X` line: `[X, Y, Z, tilt°, C°, E]`.
+pub fn parse_g1(text: &str) -> Vec<[f64; 6]> {
+    text.lines()
+        .filter(|l| l.starts_with("G1 X"))
+        .map(|l| {
+            let mut v = [0.0; 6];
+            for f in l.split_whitespace().skip(1) {
+                let (k, num) = f.split_at(1);
+                let x: f64 = num.parse().unwrap_or(f64::NAN);
+                match k {
+                    "X" => v[0] = x,
+                    "Y" => v[1] = x,
+                    "Z" => v[2] = x,
+                    "B" | "A" => v[3] = x,
+                    "C" => v[4] = x,
+                    "E" => v[5] = x,
+                    _ => {}
+                }
+            }
+            v
+        })
+        .collect()
+}
+
+/// Eq. 7 on a program's moves: total and largest single-step |Δtilt| + |ΔC|
+/// (degrees) over the `G1` moves that do not retract (printing moves and
+/// approaches; `G0` travels excluded).
+pub fn rotary_motion(moves: &[GcodeMove]) -> (f64, f64) {
+    let mut total = 0.0;
+    let mut max_step: f64 = 0.0;
+    for mv in moves {
+        if mv.linear && mv.de >= 0.0 {
+            let s = (mv.to[3] - mv.from[3]).abs() + (mv.to[4] - mv.from[4]).abs();
+            total += s;
+            max_step = max_step.max(s);
+        }
+    }
+    (total, max_step)
+}

@@ -1,0 +1,238 @@
+//! What each line of a program does, measured as `plan` measures its own
+//! program ([`crate::plan::metrics`]), and the problems a process engineer
+//! must hear about before the program runs.
+//!
+//! Per motion line with part-frame chord `L` between its tips: the
+//! duration `t = max(t_feed, |ΔX|/vX, |ΔY|/vY, |ΔZ|/vZ, |Δtilt|/ω_tilt,
+//! |ΔC|/ω_C)` with `t_feed = L / F` under `G94` (0 for `G0`: rapids go as
+//! fast as the axes), `1 / F` minutes under `G93`; the tip speed `L / t`;
+//! the tip's largest distance from the chord as the controller
+//! interpolates (0 under tool-centre-point control); the rotary step
+//! `|Δtilt| + |ΔC|`; the filament per millimetre of bead.
+
+use crate::io::gcode_read::{axes_of, GcodeMove};
+use crate::kinematics::Machine;
+use crate::plan::metrics::tip_deviation;
+use serde::Serialize;
+
+/// Rotary motion while extruding above which a line is reported as a
+/// swing (degrees): the extruder keeps feeding while the part turns that
+/// far under a short bead.
+pub const SWING_DEG: f64 = 45.0;
+
+/// Relative tolerance of the tip-speed range: a program writes its numbers
+/// to a few decimals (a `G93` feed to seven significant digits), so a line
+/// planned at exactly `v_max` reads back a few parts in ten million off.
+pub const SPEED_TOLERANCE: f64 = 1e-5;
+
+/// Is `v` outside `[lo, hi]` by more than [`SPEED_TOLERANCE`]?
+pub fn outside_range(v: f64, [lo, hi]: [f64; 2]) -> bool {
+    v < lo * (1.0 - SPEED_TOLERANCE) || v > hi * (1.0 + SPEED_TOLERANCE)
+}
+
+/// Filament per millimetre above this multiple of the program's median is
+/// reported as a blob.
+pub const BLOB_FACTOR: f64 = 3.0;
+
+/// One motion line, measured.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MoveReport {
+    /// 1-based G-code line.
+    pub line: usize,
+    /// Extrudes while moving.
+    pub extrudes: bool,
+    /// Interpolated under tool-centre-point control.
+    pub tcp: bool,
+    /// Layer the line reads as.
+    pub layer: Option<usize>,
+    /// Seconds.
+    pub seconds: f64,
+    /// Part-frame chord between the tips (mm).
+    pub length_mm: f64,
+    /// Tip speed over the part (mm/s).
+    pub tip_speed: f64,
+    /// Largest distance of the tip from the chord (mm).
+    pub deviation_mm: f64,
+    /// |Δtilt| + |ΔC| (degrees).
+    pub rotary_step_deg: f64,
+    /// Filament per mm of bead (extruding lines).
+    pub e_per_mm: f64,
+    /// Comes within the margin of the platform or printed material.
+    pub collides: bool,
+}
+
+/// Measure `mv` on `m` (whose dialect says how the line interpolates).
+pub fn measure(m: &Machine, mv: &GcodeMove) -> MoveReport {
+    let (a, b) = (axes_of(&mv.from), axes_of(&mv.to));
+    let (pa, pb) = (m.tip(&a), m.tip(&b));
+    let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]).hypot(pb[2] - pa[2]);
+    let d: [f64; 5] = std::array::from_fn(|k| (mv.to[k] - mv.from[k]).abs());
+    let commanded = if mv.inverse_time {
+        60.0 / mv.f
+    } else if !mv.moves_axes() {
+        mv.de.abs() / (mv.f / 60.0)
+    } else if mv.linear {
+        len / (mv.f / 60.0)
+    } else {
+        0.0
+    };
+    let seconds = [
+        commanded,
+        d[0] / m.x.speed,
+        d[1] / m.y.speed,
+        d[2] / m.z.speed,
+        d[3] / m.tilt.speed,
+        d[4] / m.c.speed,
+    ]
+    .into_iter()
+    .fold(0.0, f64::max);
+    let extrudes = mv.extrudes();
+    MoveReport {
+        line: mv.line,
+        extrudes,
+        tcp: mv.tcp,
+        layer: None,
+        seconds,
+        length_mm: len,
+        tip_speed: if seconds > 0.0 { len / seconds } else { 0.0 },
+        deviation_mm: if extrudes {
+            tip_deviation(m, &a, &b)
+        } else {
+            0.0
+        },
+        rotary_step_deg: d[3] + d[4],
+        e_per_mm: if extrudes && len > 0.0 {
+            mv.de / len
+        } else {
+            0.0
+        },
+        collides: false,
+    }
+}
+
+/// What is wrong with one line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, PartialOrd, Ord)]
+#[serde(rename_all = "snake_case")]
+pub enum ProblemKind {
+    /// The head comes within the margin of the platform or printed material.
+    Collision,
+    /// The tip leaves the bead by more than the machine's tip tolerance.
+    TipDeviation,
+    /// The tip speed leaves the extruder's range.
+    TipSpeed,
+    /// The part turns more than [`SWING_DEG`] under one extruding line.
+    Swing,
+    /// Filament per mm above [`BLOB_FACTOR`] × the program's median.
+    Blob,
+    /// A travel turns C by more than half a turn (the other way is shorter).
+    LongTravelTurn,
+}
+
+/// One problem, at its G-code line.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Problem {
+    /// 1-based G-code line.
+    pub line: usize,
+    /// What.
+    pub kind: ProblemKind,
+    /// The measured value (mm, mm/s, degrees, filament per mm; 0 for collisions).
+    pub value: f64,
+    /// Layer the line reads as.
+    pub layer: Option<usize>,
+}
+
+/// The travels of a program: maximal runs of lines that do not extrude
+/// between extruding ones, as `(first line, total |ΔC| in degrees)`.
+pub fn travels(moves: &[GcodeMove]) -> Vec<(usize, f64)> {
+    let mut out = Vec::new();
+    let mut cur: Option<(usize, f64)> = None;
+    for mv in moves.iter().filter(|mv| mv.moves_axes()) {
+        if mv.extrudes() {
+            if let Some(c) = cur.take() {
+                out.push(c);
+            }
+        } else {
+            let c = cur.get_or_insert((mv.line, 0.0));
+            c.1 += (mv.to[4] - mv.from[4]).abs();
+        }
+    }
+    out.extend(cur);
+    out
+}
+
+/// The tip-speed range of the extruder `tool`.
+pub fn tip_range(m: &Machine, tool: u32) -> [f64; 2] {
+    if tool == m.support.tool && tool != m.extrusion.tool {
+        m.support.tip_speed
+    } else {
+        m.tip_speed
+    }
+}
+
+/// Every problem of the measured lines `reports` (of `moves`), in line order.
+pub fn problems(m: &Machine, moves: &[GcodeMove], reports: &[MoveReport]) -> Vec<Problem> {
+    let mut out = Vec::new();
+    let median = median(
+        reports
+            .iter()
+            .filter(|r| r.extrudes && r.length_mm > 0.0)
+            .map(|r| r.e_per_mm),
+    );
+    for (mv, r) in moves.iter().zip(reports) {
+        let mut push = |kind, value| {
+            out.push(Problem {
+                line: r.line,
+                kind,
+                value,
+                layer: r.layer,
+            })
+        };
+        if r.collides {
+            push(ProblemKind::Collision, 0.0);
+        }
+        if !r.extrudes {
+            continue;
+        }
+        if r.deviation_mm > m.tip_tolerance {
+            push(ProblemKind::TipDeviation, r.deviation_mm);
+        }
+        if outside_range(r.tip_speed, tip_range(m, mv.tool)) {
+            push(ProblemKind::TipSpeed, r.tip_speed);
+        }
+        if r.rotary_step_deg > SWING_DEG {
+            push(ProblemKind::Swing, r.rotary_step_deg);
+        }
+        if median > 0.0 && r.e_per_mm > BLOB_FACTOR * median {
+            push(ProblemKind::Blob, r.e_per_mm);
+        }
+    }
+    for (line, c) in travels(moves) {
+        if c > 180.0 + 1e-6 {
+            out.push(Problem {
+                line,
+                kind: ProblemKind::LongTravelTurn,
+                value: c,
+                layer: reports
+                    .iter()
+                    .find(|r| r.line == line)
+                    .and_then(|r| r.layer),
+            });
+        }
+    }
+    out.sort_by(|a, b| (a.line, a.kind).cmp(&(b.line, b.kind)));
+    out
+}
+
+/// The median of `v` (0 when empty).
+pub fn median(v: impl Iterator<Item = f64>) -> f64 {
+    quantile(v.collect(), 0.5)
+}
+
+/// The `q` quantile of `v` (nearest rank; 0 when empty).
+pub fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
+    if v.is_empty() {
+        return 0.0;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((q * (v.len() - 1) as f64).round() as usize).min(v.len() - 1)]
+}

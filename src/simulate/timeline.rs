@@ -1,0 +1,180 @@
+//! Which material exists while each line of a program runs.
+//!
+//! A program does not say what it prints; the toolpath's layer surfaces
+//! say what the part is. A surface triangle belongs to its nearest
+//! waypoint (the scene's stamps); a waypoint is printed from the moment
+//! the program first extrudes at it: the waypoint nearest to the end of an
+//! extruding move, the one nearest to its start when the bead starts on it
+//! (within half a bead width), and the waypoints of the same layer between
+//! those two that lie under its bead (within half a bead width of the
+//! move's chord) — so a program that skips waypoints still prints them. Waypoints are numbered in the order they are first printed
+//! (the program's own order, whatever the toolpath's), and the scene is
+//! re-stamped with those numbers ([`Timeline::stamp`]).
+//!
+//! During an extruding move every printed waypoint's material exists
+//! except the last one's — the bead the nozzle is laying, which the
+//! planner's stamps leave out too; during any other move all printed
+//! material exists.
+
+use crate::io::gcode_read::{axes_of, GcodeMove};
+use crate::kinematics::Machine;
+use crate::plan::layer_reading::NearestLayer;
+
+/// Longest run of waypoints one extruding move may print at once.
+const MAX_RUN: usize = 10_000;
+
+/// When each waypoint is printed and what exists during each move.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Timeline {
+    /// Per waypoint (global index): its number in print order (`None`:
+    /// never printed).
+    pub printed: Vec<Option<u32>>,
+    /// Per move: material with a re-stamped stamp below this exists.
+    pub cutoffs: Vec<u32>,
+    /// Per move: the layer it reads as (its end's nearest waypoint for
+    /// extruding moves, else the last extruding move's; before the first,
+    /// the first's). `None` when the program never extrudes.
+    pub layers: Vec<Option<usize>>,
+}
+
+impl Timeline {
+    /// The timeline of `moves` (as [`crate::io::gcode_read::read_program`]
+    /// reads them, with `m` and `m_tcp` interpolating joint and
+    /// tool-centre-point moves) over waypoints at `pos` indexed by `reader`.
+    pub fn new(m: &Machine, reader: &NearestLayer, pos: &[[f64; 3]], moves: &[GcodeMove]) -> Self {
+        let mut printed: Vec<Option<u32>> = vec![None; pos.len()];
+        let mut cutoffs = Vec::with_capacity(moves.len());
+        let mut layers = Vec::with_capacity(moves.len());
+        let mut count = 0u32;
+        let mut last_layer = None;
+        let half_width = 0.5 * m.extrusion.width;
+        for mv in moves {
+            if !mv.extrudes() || pos.is_empty() {
+                cutoffs.push(count + 1);
+                layers.push(last_layer);
+                continue;
+            }
+            cutoffs.push(count);
+            let (pa, pb) = (m.tip(&axes_of(&mv.from)), m.tip(&axes_of(&mv.to)));
+            let (Some(a), Some(b)) = (reader.nearest(pa), reader.nearest(pb)) else {
+                layers.push(last_layer);
+                continue;
+            };
+            let mut mark = |w: usize| {
+                if printed[w].is_none() {
+                    printed[w] = Some(count);
+                    count += 1;
+                }
+            };
+            let same_layer = reader.layer(a) == reader.layer(b);
+            // The bead starts at its first point: the waypoint there is
+            // printed (the first of a section has no move ending on it).
+            if same_layer && distance_to_segment(pos[a], pa, pa) <= half_width {
+                mark(a);
+            }
+            if same_layer && a != b && a.abs_diff(b) <= MAX_RUN {
+                let run: Box<dyn Iterator<Item = usize>> = if a < b {
+                    Box::new(a + 1..b)
+                } else {
+                    Box::new((b + 1..a).rev())
+                };
+                for w in run {
+                    if distance_to_segment(pos[w], pa, pb) <= half_width {
+                        mark(w);
+                    }
+                }
+            }
+            mark(b);
+            last_layer = Some(reader.layer(b));
+            layers.push(last_layer);
+        }
+        // Before the first extrusion a move reads as the first printed layer.
+        if let Some(first) = layers.iter().flatten().next().copied() {
+            for l in layers.iter_mut() {
+                match l {
+                    None => *l = Some(first),
+                    Some(_) => break,
+                }
+            }
+        }
+        Timeline {
+            printed,
+            cutoffs,
+            layers,
+        }
+    }
+
+    /// The re-stamped stamp of a scene triangle with stamp `s` (its
+    /// waypoint's global index + 1): its waypoint's print number + 1, or
+    /// never (`u32::MAX`).
+    pub fn stamp(&self, s: u32) -> u32 {
+        match self.printed.get(s as usize - 1) {
+            Some(Some(k)) => k + 1,
+            _ => u32::MAX,
+        }
+    }
+}
+
+fn distance_to_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
+    let ab: [f64; 3] = std::array::from_fn(|k| b[k] - a[k]);
+    let ap: [f64; 3] = std::array::from_fn(|k| p[k] - a[k]);
+    let l2 = ab.iter().map(|x| x * x).sum::<f64>();
+    let u = if l2 > 0.0 {
+        (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / l2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let d: [f64; 3] = std::array::from_fn(|k| ap[k] - u * ab[k]);
+    d.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mv(from: [f64; 3], to: [f64; 3], de: f64) -> GcodeMove {
+        GcodeMove {
+            line: 1,
+            linear: true,
+            from: [from[0], from[1], from[2], 0.0, 0.0],
+            to: [to[0], to[1], to[2], 0.0, 0.0],
+            e: 0.0,
+            de,
+            f: 1500.0,
+            inverse_time: false,
+            tcp: false,
+            tool: 1,
+        }
+    }
+
+    #[test]
+    fn material_appears_in_the_programs_order_and_the_bead_under_the_nozzle_waits() {
+        // One layer of five waypoints 1 mm apart along x, printed from the
+        // far end back, skipping waypoint 2 (its bead covers it); a sixth
+        // waypoint far off is never printed.
+        let mut pos: Vec<[f64; 3]> = (0..5).map(|i| [i as f64, 0.0, 0.0]).collect();
+        pos.push([20.0, 0.0, 0.0]);
+        let reader = NearestLayer::new(&pos, &[0; 6]);
+        let m = Machine::default();
+        let moves = [
+            mv([9.0, 0.0, 5.0], [4.0, 0.0, 0.0], 0.0), // approach, no material yet
+            mv([4.0, 0.0, 0.0], [3.0, 0.0, 0.0], 0.5),
+            mv([3.0, 0.0, 0.0], [1.0, 0.0, 0.0], 1.0),
+            mv([1.0, 0.0, 0.0], [0.0, 0.0, 0.0], 0.5),
+            mv([0.0, 0.0, 0.0], [0.0, 0.0, 5.0], 0.0), // lift
+        ];
+        let t = Timeline::new(&m, &reader, &pos, &moves);
+        // The bead starts on 4, then 3; 2 under the bead and 1; then 0.
+        assert_eq!(
+            t.printed,
+            vec![Some(4), Some(3), Some(2), Some(1), Some(0), None]
+        );
+        // Extruding moves see all printed material but the last waypoint's;
+        // the approach and the lift see it all.
+        assert_eq!(t.cutoffs, vec![1, 0, 2, 4, 6]);
+        // Stamp s = waypoint + 1 → print number + 1.
+        assert_eq!(t.stamp(4), 2); // waypoint 3
+        assert_eq!(t.stamp(6), u32::MAX); // waypoint 5
+        assert_eq!(t.layers, vec![Some(0); 5]);
+    }
+}
