@@ -8,7 +8,7 @@ use common::default_scene;
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::Backend;
 use maamplan::io::gcode::{
-    axes_of, parse_g1, parse_moves, rotary_motion, write_gcode, GcodeHeader,
+    axes_of, parse_g1, read_program, rotary_motion, write_gcode, GcodeHeader,
 };
 use maamplan::kinematics::Machine;
 use maamplan::plan::program::MoveKind;
@@ -22,7 +22,7 @@ fn reference() -> (f64, f64) {
     let text =
         std::fs::read_to_string(data().join("reference_gcode/simple_curve_Gcode.txt")).unwrap();
     assert_eq!(parse_g1(&text).len(), 41_494);
-    rotary_motion(&text)
+    rotary_motion(&read_program(&text, &Machine::default()).unwrap())
 }
 
 #[test]
@@ -90,7 +90,7 @@ fn simple_curve_plan_meets_the_paper() {
 
     // The G-code parses back to the program's moves, value for value.
     let gcode = write_gcode(&machine, &p.program, &GcodeHeader::default());
-    let back = parse_moves(&gcode);
+    let back = read_program(&gcode, &machine).unwrap();
     let all = p.program.moves(&machine);
     // (A repeated waypoint is a print move going nowhere: written, but no
     // motion for a controller.)
@@ -120,7 +120,23 @@ fn simple_curve_plan_meets_the_paper() {
             assert!(matches!(mv.kind, MoveKind::Print | MoveKind::Prime));
         }
     }
-    let (j, max) = rotary_motion(&gcode);
+    // Vetted as a user would vet it (`simulate`): the program read back,
+    // printed in its own order, every move checked — nothing collides, the
+    // tip stays on its bead, every waypoint is printed.
+    let sim = common::simulate_cpu(&job.toolpath, scene, &machine, &back);
+    assert_eq!(
+        sim.summary.colliding_moves,
+        0,
+        "{:?}",
+        &sim.problems[..sim.problems.len().min(5)]
+    );
+    assert_eq!(
+        sim.summary.checked_moves,
+        back.iter().filter(|m| m.moves_axes()).count()
+    );
+    assert!(sim.summary.tip_deviation_max_mm <= machine.tip_tolerance);
+    assert_eq!(sim.summary.printed_waypoints, job.toolpath.waypoint_count());
+    let (j, max) = rotary_motion(&back);
     assert!(
         (j - p.plan.j_deg).abs() < 0.01 * p.plan.j_deg + 5.0,
         "G-code J {j} vs plan {}",

@@ -7,7 +7,7 @@ mod common;
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
-use maamplan::io::gcode::{axes_of, parse_moves, write_gcode, GcodeHeader};
+use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath::{mesh_obj, toolpath_files};
 use maamplan::kinematics::Machine;
@@ -206,7 +206,7 @@ fn support_layers_use_the_support_extruder() {
         + t2;
     // Extrusion per millimetre of bead: the support's is 0.9 of the main's
     // (equal layer heights here); its feed is 2500 mm/min.
-    let moves = parse_moves(&text);
+    let moves = read_program(&text, &m).unwrap();
     let rate = |from: usize, to: usize| {
         let (mut e, mut l) = (0.0, 0.0);
         for mv in moves

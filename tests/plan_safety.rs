@@ -7,7 +7,7 @@
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
-use maamplan::io::gcode::{axes_of, parse_moves, write_gcode, GcodeHeader};
+use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath::{mesh_obj, toolpath_files};
 use maamplan::kinematics::{orientation, Axes, Machine};
@@ -63,7 +63,8 @@ fn plan_of(tp: &Toolpath, head: &Mesh, platform: &Mesh, m: &Machine) -> (Scene, 
 /// Tips of every G-code line of the written program.
 fn written_tips(m: &Machine, p: &Plan) -> Vec<[f64; 3]> {
     let text = write_gcode(m, &p.program, &GcodeHeader::default());
-    parse_moves(&text)
+    read_program(&text, &m)
+        .unwrap()
         .iter()
         .map(|mv| m.tip(&axes_of(&mv.to)))
         .collect()

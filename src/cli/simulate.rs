@@ -102,14 +102,8 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             a.gcode.display()
         ))
     })?;
-    let moves = read_program(&text, &machine).map_err(|e| {
-        UsageError(format!(
-            "{}:{}: {}",
-            a.gcode.display(),
-            e.line,
-            e.msg
-        ))
-    })?;
+    let moves = read_program(&text, &machine)
+        .map_err(|e| UsageError(format!("{}:{}: {}", a.gcode.display(), e.line, e.msg)))?;
     if moves.is_empty() {
         return Err(UsageError(format!(
             "{}: no G0/G1 motion found: is this a G-code program?",
@@ -229,7 +223,8 @@ fn summary_text(sim: &Simulation, verbose: bool) -> String {
     let _ = writeln!(
         t,
         "tip-speed violations      {:>8.3} % of extruding moves ({:.3} % of the length)",
-        s.speed_violation_pct + 0.0, s.speed_violation_pct_length + 0.0
+        s.speed_violation_pct + 0.0,
+        s.speed_violation_pct_length + 0.0
     );
     let _ = writeln!(
         t,

@@ -18,9 +18,7 @@
 //! [`read_program`] reads any program in these dialects back (ours or the
 //! reference's) as the motion a controller would make.
 
-use crate::kinematics::{
-    Axes, Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post,
-};
+use crate::kinematics::{Axes, Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post};
 use crate::plan::program::{move_seconds, Move, MoveKind, Program, Step, TravelItem};
 use std::fmt::Write;
 
@@ -144,10 +142,7 @@ impl Writer<'_> {
         }
         let seconds = move_seconds(self.m, from, &mv.to, mv.feed, mv.e - self.e);
         let words = self.axes_words(&mv.to, mv.offset);
-        let rapid = matches!(
-            mv.kind,
-            MoveKind::Lift | MoveKind::Lower | MoveKind::Travel
-        );
+        let rapid = matches!(mv.kind, MoveKind::Lift | MoveKind::Lower | MoveKind::Travel);
         let f = self.feed_word(mv.feed, rapid, seconds);
         let _ = match mv.kind {
             MoveKind::Print => {
@@ -315,4 +310,6 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
     w.out
 }
 
-pub use super::gcode_read::{axes_of, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove};
+pub use super::gcode_read::{
+    axes_of, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove,
+};

@@ -85,6 +85,31 @@ pub fn axes_vector(a: &Axes) -> [f64; 5] {
     ]
 }
 
+/// `T<n>`: the tool it selects.
+fn tool_change(code: &str) -> Option<u32> {
+    code.strip_prefix('T')?.parse().ok()
+}
+
+/// Codes whose effect the reader follows.
+fn followed(code: &str) -> bool {
+    matches!(
+        code,
+        "M82"
+            | "M83"
+            | "G93"
+            | "G94"
+            | "G43.4"
+            | "TRAORI"
+            | "G49"
+            | "G92"
+            | "G28"
+            | "G0"
+            | "G1"
+            | "G00"
+            | "G01"
+    ) || tool_change(code).is_some()
+}
+
 /// Codes that do not move the machine and are taken as they are.
 fn harmless(code: &str) -> bool {
     matches!(
@@ -138,6 +163,12 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
         let Some((code, rest)) = tokens(raw).map_err(err)? else {
             continue;
         };
+        if !(followed(&code) || harmless(&code)) {
+            return Err(err(format!(
+                "unsupported code {code} in `{}`: the simulator follows G0/G1 moves (G90, absolute), G28, G92 E, G93/G94, G43.4/G49, TRAORI/TRAFOOF, M82/M83 and T<n>",
+                raw.trim()
+            )));
+        }
         let mut vals: [Option<f64>; 7] = [None; 7]; // X Y Z tilt C E F
         for &(k, x) in &rest {
             let slot = match k {
@@ -258,16 +289,8 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
                     tool: st.tool,
                 });
             }
-            c if c.starts_with('T') && c[1..].chars().all(|d| d.is_ascii_digit()) && c.len() > 1 => {
-                st.tool = c[1..].parse().unwrap_or(0);
-            }
-            c if harmless(c) => {}
-            c => {
-                return Err(err(format!(
-                    "unsupported code {c} in `{}`: the simulator follows G0/G1 moves (G90, absolute), G28, G92 E, G93/G94, G43.4/G49, TRAORI/TRAFOOF, M82/M83 and T<n>",
-                    raw.trim()
-                )))
-            }
+            c if tool_change(c).is_some() => st.tool = tool_change(c).unwrap_or(0),
+            _ => {} // harmless
         }
     }
     Ok(out)

@@ -143,7 +143,6 @@ impl Default for Post {
 }
 
 impl Post {
-
     /// The tilt axis' letter on a machine with rotary pair `rot`.
     pub fn tilt_letter(&self, rot: Rotary) -> char {
         self.tilt_letter.unwrap_or(match rot {
@@ -175,7 +174,10 @@ impl Post {
         if t == c {
             return Err("post.tilt_letter and post.c_letter must differ".into());
         }
-        for (name, s) in [("post.tilt_sign", self.tilt_sign), ("post.c_sign", self.c_sign)] {
+        for (name, s) in [
+            ("post.tilt_sign", self.tilt_sign),
+            ("post.c_sign", self.c_sign),
+        ] {
             if s != 1.0 && s != -1.0 {
                 return Err(format!("{name} must be 1 or -1"));
             }

@@ -123,6 +123,9 @@ pub fn outside_limits(m: &Machine, a: &Axes) -> bool {
 /// over the move `a → b`, sampled as the machine's controller interpolates
 /// (64 steps; 0 under tool-centre-point control).
 pub fn tip_deviation(m: &Machine, a: &Axes, b: &Axes) -> f64 {
+    if m.post.interpolation() == crate::kinematics::Interpolation::TipLinear {
+        return 0.0;
+    }
     let (pa, pb) = (m.tip(a), m.tip(b));
     let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
     let sl = (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2]).max(1e-18);

@@ -390,7 +390,9 @@ impl<'a> Prover<'a> {
                 let n = ((d / step).ceil() as usize).clamp(1, max_samples + 1);
                 (1..n)
                     .map(|k| {
-                        let pose = self.machine.pose_along(&mv.from, &mv.to, k as f64 / n as f64);
+                        let pose = self
+                            .machine
+                            .pose_along(&mv.from, &mv.to, k as f64 / n as f64);
                         self.query_pose(pose, mv.cutoff, self.margin)
                     })
                     .collect()

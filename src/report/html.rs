@@ -117,9 +117,11 @@ pub fn report_html(
             shown.len()
         );
     }
-    embed_figures(&mut h, figures, |f| match f.name.strip_prefix("bc_layer_") {
-        Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
-        None => true,
+    embed_figures(&mut h, figures, |f| {
+        match f.name.strip_prefix("bc_layer_") {
+            Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
+            None => true,
+        }
     });
     let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
     let _ = writeln!(

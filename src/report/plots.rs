@@ -335,18 +335,29 @@ pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, 
     fonts();
     let ext: Vec<&MoveReport> = sim.moves.iter().filter(|r| r.extrudes).collect();
     let along = |f: &dyn Fn(&MoveReport) -> f64| -> Vec<(f64, f64)> {
-        ext.iter().enumerate().map(|(k, r)| (k as f64, f(r))).collect()
+        ext.iter()
+            .enumerate()
+            .map(|(k, r)| (k as f64, f(r)))
+            .collect()
     };
     let speeds: Vec<f64> = ext.iter().map(|r| r.tip_speed).collect();
     let dev = along(&|r| r.deviation_mm);
     let step = along(&|r| r.rotary_step_deg);
-    let layers = sim.moves.iter().filter_map(|r| r.layer).max().map_or(0, |l| l + 1);
+    let layers = sim
+        .moves
+        .iter()
+        .filter_map(|r| r.layer)
+        .max()
+        .map_or(0, |l| l + 1);
     let mut per_layer = vec![0usize; layers.max(1)];
     for r in sim.moves.iter().filter(|r| r.collides) {
         per_layer[r.layer.unwrap_or(0)] += 1;
     }
     let mut out = Vec::new();
-    let mut svg = |name: &str, title: &str, draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult| -> DrawResult {
+    let mut svg = |name: &str,
+                   title: &str,
+                   draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult|
+     -> DrawResult {
         let mut s = String::new();
         {
             let root = SVGBackend::with_string(&mut s, SIZE).into_drawing_area();
@@ -362,11 +373,18 @@ pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, 
     svg("tip_speed", "Tip speed per extruding line", &|root| {
         histogram(root, "tip speed over the part (mm/s)", &speeds, m.tip_speed)
     })?;
-    svg("tip_deviation", "Tip deviation from the bead per extruding line", &|root| {
-        line_chart(root, "tip deviation (mm)", &dev, Some(m.tip_tolerance))
-    })?;
+    svg(
+        "tip_deviation",
+        "Tip deviation from the bead per extruding line",
+        &|root| line_chart(root, "tip deviation (mm)", &dev, Some(m.tip_tolerance)),
+    )?;
     svg("rotary_step", "Rotary step per extruding line", &|root| {
-        line_chart(root, "|Δtilt| + |ΔC| (°)", &step, Some(crate::simulate::measure::SWING_DEG))
+        line_chart(
+            root,
+            "|Δtilt| + |ΔC| (°)",
+            &step,
+            Some(crate::simulate::measure::SWING_DEG),
+        )
     })?;
     svg("collisions", "Colliding lines per layer", &|root| {
         bars(root, "colliding lines per layer", &per_layer)
@@ -475,7 +493,11 @@ fn line_chart<DB: DrawingBackend>(
     root.present().map_err(err)
 }
 
-fn bars<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, caption: &str, v: &[usize]) -> DrawResult {
+fn bars<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    caption: &str,
+    v: &[usize],
+) -> DrawResult {
     root.fill(&WHITE).map_err(err)?;
     let ymax = v.iter().copied().max().unwrap_or(0).max(1) as f64 * 1.15;
     let n = v.len().max(1) as f64;

@@ -237,7 +237,9 @@ impl Scene {
     pub fn restamped(&self, stamp: impl Fn(u32) -> u32 + Sync) -> Scene {
         let map = |s: u32| if s == 0 { 0 } else { stamp(s) };
         let mut out = self.clone();
-        out.part_tris.par_iter_mut().for_each(|t| t.stamp = map(t.stamp));
+        out.part_tris
+            .par_iter_mut()
+            .for_each(|t| t.stamp = map(t.stamp));
         for g in &mut out.groups {
             g.stamps.par_iter_mut().for_each(|s| *s = map(*s));
         }

@@ -210,8 +210,7 @@ pub fn report(
         tip_deviation_p99_mm: measure::quantile(dev.clone(), 0.99),
         tip_deviation_over_tolerance: count(ProblemKind::TipDeviation),
         speed_violation_pct: 100.0 * violating.len() as f64 / ext.len().max(1) as f64,
-        speed_violation_pct_length: 100.0
-            * violating.iter().map(|r| r.length_mm).sum::<f64>()
+        speed_violation_pct_length: 100.0 * violating.iter().map(|r| r.length_mm).sum::<f64>()
             / extruded.max(1e-18)
             + 0.0,
         rotary_step_max_deg: ext

@@ -404,3 +404,29 @@ pub fn margin_boundary_queries(scene: &Scene, base: &[Query], cap: f32) -> (Vec<
     }
     (queries, expected)
 }
+
+/// `simulate`'s three stages on the cpu backend, as the command runs them.
+#[allow(dead_code)]
+pub fn simulate_cpu(
+    toolpath: &Toolpath,
+    scene: &Scene,
+    m: &maamplan::kinematics::Machine,
+    moves: &[maamplan::io::gcode_read::GcodeMove],
+) -> maamplan::simulate::Simulation {
+    use maamplan::simulate;
+    let timeline = simulate::timeline(m, toolpath, moves);
+    let scene = scene.restamped(|s| timeline.stamp(s));
+    let cpu = maamplan::collide::cpu::CpuBackend::new(&scene);
+    let (hits, queries) = simulate::check_moves(
+        m,
+        &cpu,
+        maamplan::plan::head_reach(&scene),
+        m.margin,
+        maamplan::plan::PlanOptions::default().edge_step,
+        moves,
+        &timeline.cutoffs,
+        None,
+    )
+    .unwrap();
+    simulate::report(m, moves, &timeline, &hits, queries, m.margin)
+}
