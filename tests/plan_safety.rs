@@ -63,7 +63,7 @@ fn plan_of(tp: &Toolpath, head: &Mesh, platform: &Mesh, m: &Machine) -> (Scene, 
 /// Tips of every G-code line of the written program.
 fn written_tips(m: &Machine, p: &Plan) -> Vec<[f64; 3]> {
     let text = write_gcode(m, &p.program, &GcodeHeader::default());
-    read_program(&text, &m)
+    read_program(&text, m)
         .unwrap()
         .iter()
         .map(|mv| m.tip(&axes_of(&mv.to)))

@@ -209,15 +209,10 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
             }
             "G28" => {
                 // Homing: machine coordinates in every mode.
-                for k in 0..5 {
-                    if let Some(x) = vals[k] {
-                        st.axes[k] = Some(if k == 3 {
-                            x * post.tilt_sign
-                        } else if k == 4 {
-                            x * post.c_sign
-                        } else {
-                            x
-                        });
+                let signs = [1.0, 1.0, 1.0, post.tilt_sign, post.c_sign];
+                for ((axis, v), sign) in st.axes.iter_mut().zip(&vals[..5]).zip(signs) {
+                    if let Some(x) = v {
+                        *axis = Some(x * sign);
                     }
                 }
             }
@@ -276,6 +271,9 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
                 let to = target(m, &st, &vals, Some(from));
                 st.axes = to.map(Some);
                 st.e += de;
+                if to == from && de == 0.0 {
+                    continue; // Already there: no motion for a controller.
+                }
                 out.push(GcodeMove {
                     line,
                     linear: code.ends_with('1'),

@@ -219,7 +219,7 @@ pub fn problems(m: &Machine, moves: &[GcodeMove], reports: &[MoveReport]) -> Vec
             });
         }
     }
-    out.sort_by(|a, b| (a.line, a.kind).cmp(&(b.line, b.kind)));
+    out.sort_by_key(|a| (a.line, a.kind));
     out
 }
 
