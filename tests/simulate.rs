@@ -394,5 +394,17 @@ fn bad_gcode_is_one_line_naming_the_line_and_writes_nothing() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
     assert_eq!(report["summary"]["moves"], 1);
-    assert!(out.join("report.html").exists() && out.join("moves.csv").exists());
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for id in [
+        "summary",
+        "problems",
+        "bc_layer_0",
+        "tip_speed",
+        "tip_deviation",
+        "collisions",
+    ] {
+        assert!(html.contains(&format!("id=\"{id}\"")), "{id}");
+    }
+    let csv = std::fs::read_to_string(out.join("moves.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 2, "{csv}");
 }

@@ -281,12 +281,12 @@ fn summary_text(sim: &Simulation, verbose: bool) -> String {
 /// Every measured line as CSV.
 fn moves_csv(sim: &Simulation) -> String {
     let mut t = String::from(
-        "line,extrudes,tcp,layer,seconds,length_mm,tip_speed,deviation_mm,rotary_step_deg,e_per_mm,collides\n",
+        "line,extrudes,tcp,layer,seconds,length_mm,tip_speed,deviation_mm,rotary_step_deg,tilt_deg,c_deg,e_per_mm,collides\n",
     );
     for r in &sim.moves {
         let _ = writeln!(
             t,
-            "{},{},{},{},{:.6},{:.4},{:.4},{:.4},{:.3},{:.5},{}",
+            "{},{},{},{},{:.6},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.5},{}",
             r.line,
             r.extrudes as u8,
             r.tcp as u8,
@@ -296,6 +296,8 @@ fn moves_csv(sim: &Simulation) -> String {
             r.tip_speed,
             r.deviation_mm,
             r.rotary_step_deg,
+            r.tilt_deg,
+            r.c_deg,
             r.e_per_mm,
             r.collides as u8
         );

@@ -177,7 +177,24 @@ pub fn simulation_html(
         );
     }
     let _ = writeln!(h, "</table>\n<h2>Plots</h2>");
-    embed_figures(&mut h, figures, |_| true);
+    let layers = figures
+        .iter()
+        .filter(|f| f.name.starts_with("bc_layer_"))
+        .count();
+    let shown = shown_layers(layers, REPORT_LAYER_FIGURES);
+    if shown.len() < layers {
+        let _ = writeln!(
+            h,
+            "<p id=\"sampled\">B and C of {} of the {layers} layers, evenly spaced; every line's axes are in moves.csv.</p>",
+            shown.len()
+        );
+    }
+    embed_figures(&mut h, figures, |f| {
+        match f.name.strip_prefix("bc_layer_") {
+            Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
+            None => true,
+        }
+    });
     let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
     let _ = writeln!(
         h,

@@ -144,33 +144,48 @@ fn bc_chart<DB: DrawingBackend>(
     plan: &Plan,
     layer: usize,
 ) -> DrawResult {
-    root.fill(&WHITE).map_err(err)?;
     let idx: Vec<usize> = (0..plan.waypoints.len())
         .filter(|&i| plan.waypoints[i].layer == layer)
         .collect();
+    let bc = |a: &crate::kinematics::Axes| [a.tilt.to_degrees(), a.c.to_degrees()];
+    let inp: Vec<[f64; 2]> = idx.iter().map(|&i| bc(&plan.input_axes[i])).collect();
+    let pl: Vec<[f64; 2]> = idx.iter().map(|&i| bc(&plan.waypoints[i].axes)).collect();
+    bc_lines(
+        root,
+        layer,
+        plan.alpha.to_degrees(),
+        "waypoint",
+        &[("input", INPUT, 1, &inp), ("plan", PLAN, 2, &pl)],
+    )
+}
+
+/// A line of B/C values: label, colour, stroke width, `[B°, C°]` per point.
+type BcLine<'a> = (&'a str, RGBColor, u32, &'a [[f64; 2]]);
+
+/// B (top, with the singular band |B| ≤ `alpha` shaded) and C (bottom) of
+/// one layer, one line per entry of `lines`, against the point's index.
+fn bc_lines<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    layer: usize,
+    alpha: f64,
+    x_desc: &str,
+    lines: &[BcLine],
+) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
     let (top, bottom) = root.split_vertically(SIZE.1 / 2);
-    let alpha = plan.alpha.to_degrees();
-    for (area, is_b) in [(top, true), (bottom, false)] {
-        let val = |a: &crate::kinematics::Axes| {
-            if is_b {
-                a.tilt.to_degrees()
-            } else {
-                a.c.to_degrees()
-            }
-        };
-        let inp: Vec<(f64, f64)> = idx
+    for (area, k) in [(top, 0usize), (bottom, 1)] {
+        let pts: Vec<Vec<(f64, f64)>> = lines
             .iter()
-            .enumerate()
-            .map(|(k, &i)| (k as f64, val(&plan.input_axes[i])))
+            .map(|l| {
+                l.3.iter()
+                    .enumerate()
+                    .map(|(i, v)| (i as f64, v[k]))
+                    .collect()
+            })
             .collect();
-        let pl: Vec<(f64, f64)> = idx
+        let (lo, hi) = pts
             .iter()
-            .enumerate()
-            .map(|(k, &i)| (k as f64, val(&plan.waypoints[i].axes)))
-            .collect();
-        let (lo, hi) = inp
-            .iter()
-            .chain(&pl)
+            .flatten()
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), p| {
                 (l.min(p.1), h.max(p.1))
             });
@@ -179,14 +194,13 @@ fn bc_chart<DB: DrawingBackend>(
         } else {
             (-1.0, 1.0)
         };
-        let (inp, pl) = (envelope(&inp, LINE_BUCKETS), envelope(&pl, LINE_BUCKETS));
-        let n = idx.len().max(2) as f64;
+        let n = lines.iter().map(|l| l.3.len()).max().unwrap_or(0).max(2) as f64;
         let mut c = ChartBuilder::on(&area)
             .margin(8)
             .x_label_area_size(28)
             .y_label_area_size(56)
             .caption(
-                if is_b {
+                if k == 0 {
                     format!("layer {layer}: B (°)")
                 } else {
                     format!("layer {layer}: C (°, unwound)")
@@ -196,11 +210,11 @@ fn bc_chart<DB: DrawingBackend>(
             .build_cartesian_2d(0.0..n, lo..hi)
             .map_err(err)?;
         c.configure_mesh()
-            .x_desc("waypoint")
+            .x_desc(x_desc)
             .light_line_style(WHITE)
             .draw()
             .map_err(err)?;
-        if is_b {
+        if k == 0 {
             // The singular region: |B| ≤ α.
             c.draw_series(std::iter::once(Rectangle::new(
                 [(0.0, -alpha), (n, alpha)],
@@ -210,14 +224,16 @@ fn bc_chart<DB: DrawingBackend>(
             .label(format!("singular |B| ≤ {alpha:.1}°"))
             .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], BAND.filled()));
         }
-        c.draw_series(LineSeries::new(inp, INPUT.stroke_width(1)))
+        for (l, p) in lines.iter().zip(pts) {
+            let color = l.1;
+            c.draw_series(LineSeries::new(
+                envelope(&p, LINE_BUCKETS),
+                color.stroke_width(l.2),
+            ))
             .map_err(err)?
-            .label("input")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], INPUT));
-        c.draw_series(LineSeries::new(pl, PLAN.stroke_width(2)))
-            .map_err(err)?
-            .label("plan")
-            .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], PLAN));
+            .label(l.0)
+            .legend(move |(x, y)| PathElement::new([(x, y), (x + 12, y)], color));
+        }
         c.configure_series_labels()
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
@@ -370,6 +386,28 @@ pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, 
         });
         Ok(())
     };
+    let alpha = crate::plan::PlanOptions::default().alpha.to_degrees();
+    for k in 0..layers {
+        let bc: Vec<[f64; 2]> = sim
+            .moves
+            .iter()
+            .filter(|r| r.extrudes && r.layer == Some(k))
+            .map(|r| [r.tilt_deg, r.c_deg])
+            .collect();
+        svg(
+            &format!("bc_layer_{k}"),
+            &format!("Layer {k}: B and C per extruding line"),
+            &|root| {
+                bc_lines(
+                    root,
+                    k,
+                    alpha,
+                    "extruding line",
+                    &[("program", PLAN, 2, &bc)],
+                )
+            },
+        )?;
+    }
     svg("tip_speed", "Tip speed per extruding line", &|root| {
         histogram(root, "tip speed over the part (mm/s)", &speeds, m.tip_speed)
     })?;

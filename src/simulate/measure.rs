@@ -55,6 +55,10 @@ pub struct MoveReport {
     pub deviation_mm: f64,
     /// |Δtilt| + |ΔC| (degrees).
     pub rotary_step_deg: f64,
+    /// Tilt axis at the end of the line (degrees, the planner's sign).
+    pub tilt_deg: f64,
+    /// C at the end of the line (degrees, the planner's sign).
+    pub c_deg: f64,
     /// Filament per mm of bead (extruding lines).
     pub e_per_mm: f64,
     /// Comes within the margin of the platform or printed material.
@@ -101,6 +105,8 @@ pub fn measure(m: &Machine, mv: &GcodeMove) -> MoveReport {
             0.0
         },
         rotary_step_deg: d[3] + d[4],
+        tilt_deg: mv.to[3],
+        c_deg: mv.to[4],
         e_per_mm: if extrudes && len > 0.0 {
             mv.de / len
         } else {
