@@ -239,3 +239,44 @@ fn plans_are_byte_identical_on_gpu_and_cpu() {
         "the G-code differs between the gpu and cpu backends"
     );
 }
+
+#[test]
+fn simulate_gives_the_same_verdicts_on_gpu_and_cpu() {
+    use maamplan::io::gcode::read_program;
+    use maamplan::kinematics::Machine;
+    use maamplan::plan::{head_reach, PlanOptions};
+    use maamplan::simulate;
+    let job = simple_curve_job();
+    let m = Machine::default();
+    let text =
+        std::fs::read_to_string(data().join("reference_gcode/simple_curve_Gcode.txt")).unwrap();
+    let moves = read_program(&text, &m).unwrap();
+    let timeline = simulate::timeline(&m, &job.toolpath, &moves);
+    let scene = job.scene.restamped(|s| timeline.stamp(s));
+    let Some(g) = gpu(&scene, GpuOptions::default()) else {
+        return;
+    };
+    // The lines around the reference's colliding swing at line 25844, with
+    // the material the whole program printed before them.
+    let a = moves.iter().position(|mv| mv.line >= 25_000).unwrap();
+    let b = moves.iter().position(|mv| mv.line >= 26_500).unwrap();
+    let run = |backend: &dyn Backend| {
+        simulate::check_moves(
+            &m,
+            backend,
+            head_reach(&scene),
+            m.margin,
+            PlanOptions::default().edge_step,
+            &moves[a..b],
+            &timeline.cutoffs[a..b],
+            None,
+        )
+        .unwrap()
+        .0
+    };
+    let on_gpu = run(&g);
+    let on_cpu = run(&CpuBackend::new(&scene));
+    assert_eq!(on_gpu, on_cpu, "line verdicts differ between gpu and cpu");
+    let hits = on_cpu.iter().filter(|v| **v == Some(true)).count();
+    assert!(hits >= 2, "{hits} colliding lines");
+}
