@@ -340,6 +340,33 @@ fn target(m: &Machine, st: &State, vals: &[Option<f64>; 7], from: Option<[f64; 5
 /// leading `N` line number are dropped.
 type Words = (String, Vec<(char, f64)>);
 
+/// A whitespace-separated token as words: `X1.5`, or run together as many
+/// controllers accept them (`G1X1.5Y2`). `None` when a piece is not a
+/// letter followed by a number.
+fn split_words(token: &str) -> Option<Vec<(char, &str)>> {
+    let starts: Vec<usize> = token
+        .char_indices()
+        .filter(|(_, c)| c.is_ascii_alphabetic())
+        .map(|(i, _)| i)
+        .collect();
+    if starts.first() != Some(&0) {
+        return None;
+    }
+    let mut out = Vec::with_capacity(starts.len());
+    for (k, &i) in starts.iter().enumerate() {
+        let end = starts.get(k + 1).copied().unwrap_or(token.len());
+        let num = &token[i + 1..end];
+        if num.is_empty() {
+            return None;
+        }
+        out.push((token.as_bytes()[i].to_ascii_uppercase() as char, num));
+    }
+    Some(out)
+}
+
+/// The words of one line, upper-cased: the code (`G1`, `M104`, `T2`,
+/// `TRAORI`) and its `(letter, value)` pairs. Comments (`;…`, `(…)`) and a
+/// leading `N` line number are dropped.
 fn tokens(raw: &str) -> Result<Option<Words>, String> {
     let mut s = String::with_capacity(raw.len());
     let mut depth = 0;
@@ -352,31 +379,59 @@ fn tokens(raw: &str) -> Result<Option<Words>, String> {
             _ => {}
         }
     }
-    let mut parts = s.split_whitespace().peekable();
-    if parts.peek().is_some_and(|w| w.starts_with(['N', 'n'])) {
-        parts.next();
+    let trimmed = s.trim().to_ascii_uppercase();
+    if trimmed == "TRAORI" || trimmed == "TRAFOOF" {
+        return Ok(Some((trimmed, Vec::new())));
     }
-    let Some(code) = parts.next() else {
+    let mut pieces = Vec::new();
+    for token in s.split_whitespace() {
+        let words = split_words(token)
+            .ok_or_else(|| format!("'{token}' is not a letter and a finite number"))?;
+        pieces.extend(words.into_iter().map(|w| (w, token)));
+    }
+    if pieces.first().is_some_and(|((k, _), _)| *k == 'N') {
+        pieces.remove(0);
+    }
+    let mut pieces = pieces.into_iter();
+    let Some(((k, num), _)) = pieces.next() else {
         return Ok(None);
     };
-    let code = code.to_ascii_uppercase();
-    let is_word = |w: &str| w.len() > 1 && w.as_bytes()[0].is_ascii_alphabetic();
-    if !(is_word(&code) || code == "TRAORI" || code == "TRAFOOF") {
-        return Err(format!("`{}` is not a G-code word", raw.trim()));
-    }
+    let code = format!("{k}{}", num.to_ascii_uppercase());
     let mut words = Vec::new();
-    for w in parts {
-        let mut chars = w.chars();
-        let k = chars.next().unwrap_or(' ').to_ascii_uppercase();
-        let num = chars.as_str();
+    for ((k, num), token) in pieces {
         let x: f64 = num
             .parse()
             .ok()
-            .filter(|x: &f64| x.is_finite() && k.is_ascii_alphabetic())
-            .ok_or_else(|| format!("'{w}' is not a letter and a finite number"))?;
+            .filter(|x: &f64| x.is_finite())
+            .ok_or_else(|| format!("'{token}' is not a letter and a finite number"))?;
         words.push((k, x));
     }
     Ok(Some((code, words)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn words_are_read_with_or_without_spaces_and_comments_go() {
+        let w = |s: &str| tokens(s).unwrap();
+        let g1 = Some(("G1".to_string(), vec![('X', 1.5), ('Y', -2.0), ('E', 0.25)]));
+        assert_eq!(w("G1 X1.5 Y-2 E0.25"), g1);
+        assert_eq!(w("g1x1.5y-2e.25 ; comment"), g1);
+        assert_eq!(w("N120 G1 X1.5 (note) Y-2 E0.25"), g1);
+        assert_eq!(w("G43.4 H1"), Some(("G43.4".to_string(), vec![('H', 1.0)])));
+        assert_eq!(w(" TRAORI "), Some(("TRAORI".to_string(), vec![])));
+        assert_eq!(w("; only a comment"), None);
+        // No exponents in G-code: E starts the next word.
+        assert_eq!(
+            w("G1 X1E5"),
+            Some(("G1".to_string(), vec![('X', 1.0), ('E', 5.0)]))
+        );
+        for bad in ["G1 XNaN", "G1 X1e", "G1 X", "G1 *5", "G1 X1..2", "G1 Xinf"] {
+            assert!(tokens(bad).is_err(), "{bad}");
+        }
+    }
 }
 
 /// The machine axes of every `G1 X` line: `[X, Y, Z, tilt°, C°, E]`.
