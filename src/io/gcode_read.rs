@@ -409,31 +409,6 @@ fn tokens(raw: &str) -> Result<Option<Words>, String> {
     Ok(Some((code, words)))
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn words_are_read_with_or_without_spaces_and_comments_go() {
-        let w = |s: &str| tokens(s).unwrap();
-        let g1 = Some(("G1".to_string(), vec![('X', 1.5), ('Y', -2.0), ('E', 0.25)]));
-        assert_eq!(w("G1 X1.5 Y-2 E0.25"), g1);
-        assert_eq!(w("g1x1.5y-2e.25 ; comment"), g1);
-        assert_eq!(w("N120 G1 X1.5 (note) Y-2 E0.25"), g1);
-        assert_eq!(w("G43.4 H1"), Some(("G43.4".to_string(), vec![('H', 1.0)])));
-        assert_eq!(w(" TRAORI "), Some(("TRAORI".to_string(), vec![])));
-        assert_eq!(w("; only a comment"), None);
-        // No exponents in G-code: E starts the next word.
-        assert_eq!(
-            w("G1 X1E5"),
-            Some(("G1".to_string(), vec![('X', 1.0), ('E', 5.0)]))
-        );
-        for bad in ["G1 XNaN", "G1 X1e", "G1 X", "G1 *5", "G1 X1..2", "G1 Xinf"] {
-            assert!(tokens(bad).is_err(), "{bad}");
-        }
-    }
-}
-
 /// The machine axes of every `G1 X` line: `[X, Y, Z, tilt°, C°, E]`.
 pub fn parse_g1(text: &str) -> Vec<[f64; 6]> {
     text.lines()
@@ -472,4 +447,29 @@ pub fn rotary_motion(moves: &[GcodeMove]) -> (f64, f64) {
         }
     }
     (total, max_step)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn words_are_read_with_or_without_spaces_and_comments_go() {
+        let w = |s: &str| tokens(s).unwrap();
+        let g1 = Some(("G1".to_string(), vec![('X', 1.5), ('Y', -2.0), ('E', 0.25)]));
+        assert_eq!(w("G1 X1.5 Y-2 E0.25"), g1);
+        assert_eq!(w("g1x1.5y-2e.25 ; comment"), g1);
+        assert_eq!(w("N120 G1 X1.5 (note) Y-2 E0.25"), g1);
+        assert_eq!(w("G43.4 H1"), Some(("G43.4".to_string(), vec![('H', 1.0)])));
+        assert_eq!(w(" TRAORI "), Some(("TRAORI".to_string(), vec![])));
+        assert_eq!(w("; only a comment"), None);
+        // No exponents in G-code: E starts the next word.
+        assert_eq!(
+            w("G1 X1E5"),
+            Some(("G1".to_string(), vec![('X', 1.0), ('E', 5.0)]))
+        );
+        for bad in ["G1 XNaN", "G1 X1e", "G1 X", "G1 *5", "G1 X1..2", "G1 Xinf"] {
+            assert!(tokens(bad).is_err(), "{bad}");
+        }
+    }
 }
