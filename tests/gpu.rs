@@ -252,7 +252,8 @@ fn simulate_gives_the_same_verdicts_on_gpu_and_cpu() {
         std::fs::read_to_string(data().join("reference_gcode/simple_curve_Gcode.txt")).unwrap();
     let moves = read_program(&text, &m).unwrap();
     let timeline = simulate::timeline(&m, &job.toolpath, &moves);
-    let scene = job.scene.restamped(|s| timeline.stamp(s));
+    let mut scene = job.scene;
+    scene.restamp(|s| timeline.stamp(s));
     let Some(g) = gpu(&scene, GpuOptions::default()) else {
         return;
     };

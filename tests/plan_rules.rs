@@ -4,6 +4,8 @@
 
 mod common;
 
+use common::plate;
+
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
@@ -16,18 +18,6 @@ use maamplan::scene::{Scene, SceneConfig};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
 use std::path::Path;
 use std::process::Command;
-
-fn plate(x: [f32; 2], y: [f32; 2], z: f32) -> Mesh {
-    Mesh {
-        vertices: vec![
-            [x[0], y[0], z],
-            [x[1], y[0], z],
-            [x[1], y[1], z],
-            [x[0], y[1], z],
-        ],
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-    }
-}
 
 fn unit(v: [f64; 3]) -> [f32; 3] {
     let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();

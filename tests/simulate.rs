@@ -6,9 +6,10 @@
 
 mod common;
 
+use common::plate;
+
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
-use maamplan::geometry::Mesh;
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath::{mesh_obj, toolpath_files};
@@ -18,19 +19,8 @@ use maamplan::plan::{plan, Plan, PlanOptions};
 use maamplan::scene::{Scene, SceneConfig};
 use maamplan::simulate::ProblemKind;
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
+use std::path::Path;
 use std::process::Command;
-
-fn plate(x: [f32; 2], y: [f32; 2], z: f32) -> Mesh {
-    Mesh {
-        vertices: vec![
-            [x[0], y[0], z],
-            [x[1], y[0], z],
-            [x[1], y[1], z],
-            [x[0], y[1], z],
-        ],
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-    }
-}
 
 /// Three rows of waypoints whose nozzles lean, the first turning fast
 /// along its row (the rotary axes set the pace), the others slowly (the
@@ -337,6 +327,19 @@ fn bad_gcode_is_one_line_naming_the_line_and_writes_nothing() {
         mesh_obj(&box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0])),
     )
     .unwrap();
+    let simulate = |g: &Path, out: &Path| {
+        cli(&[
+            "simulate",
+            g.to_str().unwrap(),
+            job.to_str().unwrap(),
+            "--platform",
+            platform.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+    };
     let good = "G90\nG28 X0 Y0 Z50 B0 C0\nG1 X1 Y0 Z0.6 E1 F1500\n";
     for (text, line, what) in [
         (format!("{good}G1 X2 Q5\n"), 4, "unknown word 'Q'"),
@@ -355,17 +358,7 @@ fn bad_gcode_is_one_line_naming_the_line_and_writes_nothing() {
         let g = dir.path().join("bad.gcode");
         std::fs::write(&g, &text).unwrap();
         let out = dir.path().join("out");
-        let o = cli(&[
-            "simulate",
-            g.to_str().unwrap(),
-            job.to_str().unwrap(),
-            "--platform",
-            platform.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "-o",
-            out.to_str().unwrap(),
-        ]);
+        let o = simulate(&g, &out);
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(o.status.code(), Some(2), "{err}");
         assert_eq!(err.trim().lines().count(), 1, "{err}");
@@ -379,17 +372,7 @@ fn bad_gcode_is_one_line_naming_the_line_and_writes_nothing() {
     let g = dir.path().join("good.gcode");
     std::fs::write(&g, good).unwrap();
     let out = dir.path().join("out");
-    let o = cli(&[
-        "simulate",
-        g.to_str().unwrap(),
-        job.to_str().unwrap(),
-        "--platform",
-        platform.to_str().unwrap(),
-        "--backend",
-        "cpu",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = simulate(&g, &out);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();

@@ -2,12 +2,12 @@
 //! the same pose `plan` starts from — or a written plan's poses and
 //! printing moves, one verdict each, counted per layer.
 
-use super::{progress, write_json, BackendKind, SceneArgs, UsageError};
+use super::{machine_and_margin, progress, write_json, BackendKind, SceneArgs, UsageError};
 use anyhow::Result;
 use clap::Args;
 use maamplan::io::plan_csv::read_plan;
 use maamplan::job::Job;
-use maamplan::kinematics::{load_machine, Axes, Machine};
+use maamplan::kinematics::{Axes, Machine};
 use maamplan::plan::layer_reading::NearestLayer;
 use maamplan::plan::motion::{MoveSpec, Prover};
 use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
@@ -56,14 +56,7 @@ struct Verdicts {
 
 /// Run `check`.
 pub fn run(a: CheckArgs) -> Result<()> {
-    let machine = match &a.machine {
-        Some(p) => load_machine(p)?,
-        None => Machine::default(),
-    };
-    let margin = a.margin.unwrap_or(machine.margin);
-    if !(margin.is_finite() && (0.0..10.0).contains(&margin)) {
-        return Err(UsageError("--margin must be between 0 and 10 mm".into()).into());
-    }
+    let (machine, margin) = machine_and_margin(a.machine.as_deref(), a.margin)?;
     let job = a.scene.load()?;
     let scene = &job.scene;
     let backend = a.backend.build(scene, !a.quiet)?;

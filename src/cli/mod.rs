@@ -183,6 +183,23 @@ impl BackendKind {
     }
 }
 
+/// The machine of `--machine` (or the built-in one) and the margin to
+/// check at: `--margin`, else the machine file's.
+pub fn machine_and_margin(
+    path: Option<&std::path::Path>,
+    margin: Option<f64>,
+) -> Result<(maamplan::kinematics::Machine, f64)> {
+    let machine = match path {
+        Some(p) => maamplan::kinematics::load_machine(p)?,
+        None => maamplan::kinematics::Machine::default(),
+    };
+    let margin = margin.unwrap_or(machine.margin);
+    if !(margin.is_finite() && (0.0..10.0).contains(&margin)) {
+        return Err(UsageError("--margin must be between 0 and 10 mm".into()).into());
+    }
+    Ok((machine, margin))
+}
+
 pub(crate) fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
     let v: Vec<f32> = s
         .split(',')

@@ -4,13 +4,12 @@
 
 use super::plan::check_output;
 use super::progress::Reporter;
-use super::{BackendKind, SceneArgs, UsageError};
+use super::{machine_and_margin, BackendKind, SceneArgs, UsageError};
 use anyhow::{Context, Result};
 use clap::Args;
 use maamplan::io::gcode_read::read_program;
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::kinematics::{load_machine, Machine};
 use maamplan::plan::{head_reach, PlanOptions, Progress};
 use maamplan::scene::{HeadConfig, Scene, SceneConfig};
 use maamplan::simulate::{self, ProblemKind, Simulation};
@@ -85,14 +84,7 @@ fn load_scene(a: &SimulateArgs) -> Result<(String, Toolpath, Scene)> {
 /// Run `simulate`.
 pub fn run(a: SimulateArgs) -> Result<()> {
     let t0 = Instant::now();
-    let machine = match &a.machine {
-        Some(p) => load_machine(p)?,
-        None => Machine::default(),
-    };
-    let margin = a.margin.unwrap_or(machine.margin);
-    if !(margin.is_finite() && (0.0..10.0).contains(&margin)) {
-        return Err(UsageError("--margin must be between 0 and 10 mm".into()).into());
-    }
+    let (machine, margin) = machine_and_margin(a.machine.as_deref(), a.margin)?;
     if let Some(out) = &a.out {
         check_output(out)?;
     }
@@ -113,12 +105,12 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
-    let (source, toolpath, scene) = load_scene(&a)?;
+    let (source, toolpath, mut scene) = load_scene(&a)?;
     show.stage_line("load", t0.elapsed().as_secs_f64(), None);
 
     let t1 = Instant::now();
     let timeline = simulate::timeline(&machine, &toolpath, &moves);
-    let scene = scene.restamped(|s| timeline.stamp(s));
+    scene.restamp(|s| timeline.stamp(s));
     show.stage_line("timeline", t1.elapsed().as_secs_f64(), None);
 
     show.begin("checking");

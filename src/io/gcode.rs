@@ -86,10 +86,10 @@ impl Writer<'_> {
     }
 
     /// The position words of `a`: machine X Y Z (shifted by minus the
-    /// nozzle offset) in the joint dialect, the part-frame tip under
-    /// tool-centre-point control; then the rotary axes.
-    fn axes_words(&self, a: &Axes, offset: [f64; 2]) -> String {
-        let xyz = if self.tcp() {
+    /// nozzle offset), or the part-frame tip when `tip` (tool-centre-point
+    /// control on); then the rotary axes.
+    fn axes_words(&self, a: &Axes, offset: [f64; 2], tip: bool) -> String {
+        let xyz = if tip {
             self.m.tip(a)
         } else {
             [a.xyz[0] - offset[0], a.xyz[1] - offset[1], a.xyz[2]]
@@ -107,13 +107,13 @@ impl Writer<'_> {
     }
 
     /// ` F…` when the feed changes (G94), or every `G1` line's inverse
-    /// time (G93; rapids take none).
-    fn feed_word(&mut self, mm_s: f64, rapid: bool, seconds: f64) -> String {
+    /// time (G93: `seconds` of the line; rapids take none).
+    fn feed_word(&mut self, mm_s: f64, rapid: bool, seconds: impl FnOnce() -> f64) -> String {
         if self.post.feed == FeedMode::G93 {
             return if rapid {
                 String::new()
             } else {
-                format!(" F{}", inverse_time(seconds))
+                format!(" F{}", inverse_time(seconds()))
             };
         }
         let f = feed(mm_s);
@@ -140,10 +140,12 @@ impl Writer<'_> {
         if moves_axes && mv.to == *from && mv.kind != MoveKind::Print {
             return; // Already there (e.g. no lift needed at the start).
         }
-        let seconds = move_seconds(self.m, from, &mv.to, mv.feed, mv.e - self.e);
-        let words = self.axes_words(&mv.to, mv.offset);
+        let words = self.axes_words(&mv.to, mv.offset, self.tcp());
         let rapid = matches!(mv.kind, MoveKind::Lift | MoveKind::Lower | MoveKind::Travel);
-        let f = self.feed_word(mv.feed, rapid, seconds);
+        let (m, e) = (self.m, self.e);
+        let f = self.feed_word(mv.feed, rapid, || {
+            move_seconds(m, from, &mv.to, mv.feed, mv.e - e)
+        });
         let _ = match mv.kind {
             MoveKind::Print => {
                 let e = self.e_word(mv.e);
@@ -236,21 +238,8 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
     }
     // Homing is in machine coordinates in every dialect.
     let home = prog.home;
-    let f = if post.feed == FeedMode::G94 {
-        w.feed_word(m.travel.speed, true, 0.0)
-    } else {
-        String::new()
-    };
-    let words = Writer {
-        post: &Post {
-            dialect: Dialect::Joint,
-            ..post.clone()
-        },
-        out: String::new(),
-        feed: None,
-        ..w
-    }
-    .axes_words(&home, [0.0; 2]);
+    let f = w.feed_word(m.travel.speed, true, || 0.0);
+    let words = w.axes_words(&home, [0.0; 2], false);
     let _ = writeln!(w.out, "G28 {words}{f}");
     let tool = prog.first_tool.map_or(m.extrusion.tool, |t| t.tool);
     if let Some(t) = prog.first_tool {

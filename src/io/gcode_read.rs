@@ -74,17 +74,6 @@ pub fn axes_of(v: &[f64; 5]) -> Axes {
     }
 }
 
-/// `a`'s axes as a parsed `[X, Y, Z, tilt°, C°]` (the inverse of [`axes_of`]).
-pub fn axes_vector(a: &Axes) -> [f64; 5] {
-    [
-        a.xyz[0],
-        a.xyz[1],
-        a.xyz[2],
-        a.tilt.to_degrees(),
-        a.c.to_degrees(),
-    ]
-}
-
 /// `T<n>`: the tool it selects.
 fn tool_change(code: &str) -> Option<u32> {
     code.strip_prefix('T')?.parse().ok()
@@ -101,6 +90,7 @@ fn followed(code: &str) -> bool {
             | "G43.4"
             | "TRAORI"
             | "G49"
+            | "TRAFOOF"
             | "G92"
             | "G28"
             | "G0"
@@ -114,17 +104,7 @@ fn followed(code: &str) -> bool {
 fn harmless(code: &str) -> bool {
     matches!(
         code,
-        "G4" | "G04"
-            | "G17"
-            | "G21"
-            | "G90"
-            | "G40"
-            | "G80"
-            | "G53"
-            | "G54"
-            | "G64"
-            | "G61"
-            | "TRAFOOF"
+        "G4" | "G04" | "G17" | "G21" | "G90" | "G40" | "G80" | "G53" | "G54" | "G64" | "G61"
     ) || code.starts_with('M')
 }
 
@@ -229,66 +209,56 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
                     Some(x) => x - st.e,
                     None => 0.0,
                 };
-                if !moves_axis {
-                    st.e += de;
-                    if de != 0.0 {
-                        if let Some(from) = known(&st.axes) {
-                            out.push(GcodeMove {
-                                line,
-                                linear: code.ends_with('1'),
-                                from,
-                                to: from,
-                                e: st.e,
-                                de,
-                                f: st.f,
-                                inverse_time: st.inverse_time,
-                                tcp: st.tcp,
-                                tool: st.tool,
-                            });
-                        }
-                    }
-                    continue;
-                }
-                let Some(from) = known(&st.axes) else {
-                    let missing: Vec<char> = ['X', 'Y', 'Z', tl, cl]
+                let from = known(&st.axes);
+                if from.is_none() && moves_axis {
+                    let missing: Vec<String> = ['X', 'Y', 'Z', tl, cl]
                         .into_iter()
                         .zip(st.axes.iter().zip(&vals[..5]))
                         .filter(|(_, (a, v))| a.is_none() && v.is_none())
-                        .map(|(c, _)| c)
+                        .map(|(c, _)| c.to_string())
                         .collect();
                     if !missing.is_empty() {
                         return Err(err(format!(
                             "{code} before every axis has a position ({} unknown): home with G28 naming every axis, or give every axis on the first move",
-                            missing.iter().map(|c| c.to_string()).collect::<Vec<_>>().join(", ")
+                            missing.join(", ")
                         )));
                     }
-                    // Every axis is given on this first move: it starts there.
-                    let to = target(m, &st, &vals, None);
-                    st.axes = to.map(Some);
-                    st.e += de;
-                    continue;
-                };
-                let to = target(m, &st, &vals, Some(from));
-                st.axes = to.map(Some);
-                st.e += de;
-                if to == from && de == 0.0 {
-                    continue; // Already there: no motion for a controller.
                 }
-                out.push(GcodeMove {
-                    line,
-                    linear: code.ends_with('1'),
-                    from,
-                    to,
-                    e: st.e,
-                    de,
-                    f: st.f,
-                    inverse_time: st.inverse_time,
-                    tcp: st.tcp,
-                    tool: st.tool,
-                });
+                // Every axis given on the first move: the machine starts there.
+                let to = if moves_axis {
+                    Some(target(m, &st, &vals, from))
+                } else {
+                    from
+                };
+                if let Some(to) = to {
+                    st.axes = to.map(Some);
+                }
+                st.e += de;
+                // A line that changes nothing is no motion for a controller.
+                if let (Some(from), Some(to)) = (from, to) {
+                    if to != from || de != 0.0 {
+                        out.push(GcodeMove {
+                            line,
+                            linear: code.ends_with('1'),
+                            from,
+                            to,
+                            e: st.e,
+                            de,
+                            f: st.f,
+                            inverse_time: st.inverse_time,
+                            tcp: st.tcp,
+                            tool: st.tool,
+                        });
+                    }
+                }
             }
-            c if tool_change(c).is_some() => st.tool = tool_change(c).unwrap_or(0),
-            _ => {} // harmless
+            // The rest was checked above: tool changes, and codes that do
+            // not move the machine.
+            c => {
+                if let Some(t) = tool_change(c) {
+                    st.tool = t;
+                }
+            }
         }
     }
     Ok(out)

@@ -296,15 +296,9 @@ impl Machine {
     /// joint-linear axes, or the tip straight in the part frame with the
     /// rotary axes linear.
     pub fn pose_along(&self, a: &Axes, b: &Axes, t: f64) -> Pose {
-        match self.post.interpolation() {
-            Interpolation::Joint => self.pose(&a.lerp(b, t)),
-            Interpolation::TipLinear => {
-                let (pa, pb) = (self.tip(a), self.tip(b));
-                let p = std::array::from_fn(|k| pa[k] + t * (pb[k] - pa[k]));
-                let r = a.lerp(b, t);
-                head_pose(self.rotary, p, r.tilt, r.c)
-            }
-        }
+        // The rotary axes move linearly in every dialect.
+        let r = a.lerp(b, t);
+        head_pose(self.rotary, self.tip_along(a, b, t), r.tilt, r.c)
     }
 
     /// The part-frame tip at fraction `t` of the move `a → b` (see

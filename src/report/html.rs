@@ -58,14 +58,7 @@ pub fn report_html(
     figures: &[Figure],
     seconds: f64,
 ) -> String {
-    let (source, command) = (ctx.source, ctx.command);
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan report — {}</title>\n<style>{STYLE}</style></head><body>\n",
-        esc(source)
-    );
-    let _ = writeln!(h, "<h1>Motion plan: {}</h1>", esc(source));
+    let mut h = page_start("report", "Motion plan", ctx.source);
     let _ = writeln!(
         h,
         "<p>{} waypoints planned in {seconds:.2} s.</p>",
@@ -107,29 +100,13 @@ pub fn report_html(
             "<tr><td>{k}</td><td>{n}</td><td>{ci}</td><td>{cp}</td></tr>"
         );
     }
-    let _ = writeln!(h, "</table>\n<h2>Plots</h2>");
-    let layers = layer_table(plan).len();
-    let shown = shown_layers(layers, REPORT_LAYER_FIGURES);
-    if shown.len() < layers {
-        let _ = writeln!(
-            h,
-            "<p id=\"sampled\">B and C of {} of the {layers} layers, evenly spaced; every layer's plot is in plots/bc_layer_&lt;k&gt;.svg and the full data in plan.csv.</p>",
-            shown.len()
-        );
-    }
-    embed_figures(&mut h, figures, |f| {
-        match f.name.strip_prefix("bc_layer_") {
-            Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
-            None => true,
-        }
-    });
-    let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
-    let _ = writeln!(
-        h,
-        "<h2>Command</h2><pre>{}</pre>\n</body></html>",
-        esc(command)
+    let _ = writeln!(h, "</table>");
+    plots_section(
+        &mut h,
+        figures,
+        "every layer's plot is in plots/bc_layer_&lt;k&gt;.svg and the full data in plan.csv",
     );
-    h
+    page_end(h, m, ctx.command)
 }
 
 /// The page of a simulation: its numbers, its problems at their lines,
@@ -140,14 +117,7 @@ pub fn simulation_html(
     sim: &Simulation,
     figures: &[Figure],
 ) -> String {
-    let (source, command) = (ctx.source, ctx.command);
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan simulation — {}</title>\n<style>{STYLE}</style></head><body>\n",
-        esc(source)
-    );
-    let _ = writeln!(h, "<h1>Simulation: {}</h1>", esc(source));
+    let mut h = page_start("simulation", "Simulation", ctx.source);
     let _ = writeln!(h, "<h2>Summary</h2><table id=\"summary\">");
     let summary = serde_json::to_value(&sim.summary).unwrap_or_default();
     if let Some(obj) = summary.as_object() {
@@ -176,7 +146,40 @@ pub fn simulation_html(
             p.layer.map_or(String::new(), |l| l.to_string())
         );
     }
-    let _ = writeln!(h, "</table>\n<h2>Plots</h2>");
+    let _ = writeln!(h, "</table>");
+    plots_section(&mut h, figures, "every line's axes are in moves.csv");
+    page_end(h, m, ctx.command)
+}
+
+/// The page up to its heading: `<title>maamplan {kind} — source</title>`,
+/// `<h1>{heading}: source</h1>`.
+fn page_start(kind: &str, heading: &str, source: &str) -> String {
+    let mut h = String::new();
+    let _ = write!(
+        h,
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan {kind} — {}</title>\n<style>{STYLE}</style></head><body>\n",
+        esc(source)
+    );
+    let _ = writeln!(h, "<h1>{heading}: {}</h1>", esc(source));
+    h
+}
+
+/// The machine and the command, and the page's end.
+fn page_end(mut h: String, m: &Machine, command: &str) -> String {
+    let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
+    let _ = writeln!(
+        h,
+        "<h2>Command</h2><pre>{}</pre>\n</body></html>",
+        esc(command)
+    );
+    h
+}
+
+/// The plots: at most [`REPORT_LAYER_FIGURES`] of the per-layer B/C
+/// figures (with a note saying where the rest are, `elsewhere`), then the
+/// others.
+fn plots_section(h: &mut String, figures: &[Figure], elsewhere: &str) {
+    let _ = writeln!(h, "<h2>Plots</h2>");
     let layers = figures
         .iter()
         .filter(|f| f.name.starts_with("bc_layer_"))
@@ -185,23 +188,14 @@ pub fn simulation_html(
     if shown.len() < layers {
         let _ = writeln!(
             h,
-            "<p id=\"sampled\">B and C of {} of the {layers} layers, evenly spaced; every line's axes are in moves.csv.</p>",
+            "<p id=\"sampled\">B and C of {} of the {layers} layers, evenly spaced; {elsewhere}.</p>",
             shown.len()
         );
     }
-    embed_figures(&mut h, figures, |f| {
-        match f.name.strip_prefix("bc_layer_") {
-            Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
-            None => true,
-        }
+    embed_figures(h, figures, |f| match f.name.strip_prefix("bc_layer_") {
+        Some(k) => k.parse().is_ok_and(|k: usize| shown.contains(&k)),
+        None => true,
     });
-    let _ = writeln!(h, "<h2>Machine</h2><pre>{}</pre>", esc(&m.to_toml()));
-    let _ = writeln!(
-        h,
-        "<h2>Command</h2><pre>{}</pre>\n</body></html>",
-        esc(command)
-    );
-    h
 }
 
 /// Each figure of `figures` that `show` keeps, inline.

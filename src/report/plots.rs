@@ -248,9 +248,43 @@ fn speed_chart<DB: DrawingBackend>(
     m: &Machine,
     plan: &Plan,
 ) -> DrawResult {
-    root.fill(&WHITE).map_err(err)?;
     let (inp, pl) = tip_speeds(m, plan);
-    let top = m.tip_speed[1] * 1.2;
+    histogram(
+        root,
+        "tip speed over the part (mm/s), input vs plan",
+        "segments",
+        m.tip_speed[1] * 1.2,
+        m.tip_speed,
+        &[("input", INPUT, &inp), ("plan", PLAN, &pl)],
+    )
+}
+
+fn collision_chart<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plan: &Plan) -> DrawResult {
+    let t = layer_table(plan);
+    let inp: Vec<usize> = t.iter().map(|r| r.1).collect();
+    let pl: Vec<usize> = t.iter().map(|r| r.2).collect();
+    bars(
+        root,
+        "colliding waypoints per layer, input vs plan",
+        "waypoints",
+        &[("input", INPUT, &inp), ("plan", PLAN, &pl)],
+    )
+}
+
+/// A series of a histogram or bar chart: label, colour, values.
+type Series<'a, T> = (&'a str, RGBColor, &'a [T]);
+
+/// Values in 60 bins over `[0, top)` (larger ones in the last), side by
+/// side per series on a log scale, with `[v_min, v_max]` marked.
+fn histogram<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    caption: &str,
+    y_desc: &str,
+    top: f64,
+    [vmin, vmax]: [f64; 2],
+    series: &[Series<f64>],
+) -> DrawResult {
+    root.fill(&WHITE).map_err(err)?;
     let bins = 60usize;
     let w = top / bins as f64;
     let hist = |v: &[f64]| {
@@ -260,35 +294,33 @@ fn speed_chart<DB: DrawingBackend>(
         }
         h
     };
-    let (hi, hp) = (hist(&inp), hist(&pl));
-    let ymax = hi.iter().chain(&hp).copied().max().unwrap_or(1).max(1) as f64;
+    let hs: Vec<Vec<usize>> = series.iter().map(|s| hist(s.2)).collect();
+    let ymax = hs.iter().flatten().copied().max().unwrap_or(1).max(1) as f64;
     let mut c = ChartBuilder::on(&root)
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(70)
-        .caption(
-            "tip speed over the part (mm/s), input vs plan",
-            ("sans-serif", 18),
-        )
+        .caption(caption, ("sans-serif", 18))
         .build_cartesian_2d(0.0..top, (0.5..ymax * 2.0).log_scale())
         .map_err(err)?;
     c.configure_mesh()
         .x_desc("mm/s")
-        .y_desc("segments")
+        .y_desc(y_desc)
         .light_line_style(WHITE)
         .draw()
         .map_err(err)?;
-    let [vmin, vmax] = m.tip_speed;
     c.draw_series(
         [vmin, vmax].map(|v| PathElement::new([(v, 0.5), (v, ymax * 2.0)], RED.stroke_width(2))),
     )
     .map_err(err)?
     .label(format!("[v_min, v_max] = [{vmin}, {vmax}]"))
     .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED));
-    for (h, color, label, off) in [(&hi, INPUT, "input", 0.0), (&hp, PLAN, "plan", 0.5)] {
+    let share = 1.0 / series.len().max(1) as f64;
+    for (k, (&(label, color, _), h)) in series.iter().zip(&hs).enumerate() {
+        let off = k as f64 * share;
         c.draw_series(h.iter().enumerate().filter(|(_, &n)| n > 0).map(|(b, &n)| {
             let x0 = b as f64 * w + off * w;
-            Rectangle::new([(x0, 0.5), (x0 + 0.5 * w, n as f64)], color.filled())
+            Rectangle::new([(x0, 0.5), (x0 + share * w, n as f64)], color.filled())
         }))
         .map_err(err)?
         .label(label)
@@ -303,32 +335,41 @@ fn speed_chart<DB: DrawingBackend>(
     root.present().map_err(err)
 }
 
-fn collision_chart<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, plan: &Plan) -> DrawResult {
+/// Per layer, one bar per series side by side.
+fn bars<DB: DrawingBackend>(
+    root: DrawingArea<DB, Shift>,
+    caption: &str,
+    y_desc: &str,
+    series: &[Series<usize>],
+) -> DrawResult {
     root.fill(&WHITE).map_err(err)?;
-    let t = layer_table(plan);
-    let ymax = t.iter().map(|r| r.1.max(r.2)).max().unwrap_or(0).max(1) as f64 * 1.15;
-    let n = t.len().max(1) as f64;
+    let ymax = series
+        .iter()
+        .flat_map(|s| s.2.iter().copied())
+        .max()
+        .unwrap_or(0)
+        .max(1) as f64
+        * 1.15;
+    let n = series.iter().map(|s| s.2.len()).max().unwrap_or(0).max(1) as f64;
     let mut c = ChartBuilder::on(&root)
         .margin(10)
         .x_label_area_size(36)
         .y_label_area_size(60)
-        .caption(
-            "colliding waypoints per layer, input vs plan",
-            ("sans-serif", 18),
-        )
+        .caption(caption, ("sans-serif", 18))
         .build_cartesian_2d(0.0..n, 0.0..ymax)
         .map_err(err)?;
     c.configure_mesh()
         .x_desc("layer")
-        .y_desc("waypoints")
+        .y_desc(y_desc)
         .light_line_style(WHITE)
         .draw()
         .map_err(err)?;
-    for (color, label, off, pick) in [(INPUT, "input", 0.1, 1usize), (PLAN, "plan", 0.5, 2)] {
-        c.draw_series(t.iter().enumerate().map(|(k, r)| {
-            let v = if pick == 1 { r.1 } else { r.2 } as f64;
+    let width = 0.8 / series.len().max(1) as f64;
+    for (k, &(label, color, v)) in series.iter().enumerate() {
+        let off = 0.1 + k as f64 * width;
+        c.draw_series(v.iter().enumerate().map(|(l, &y)| {
             Rectangle::new(
-                [(k as f64 + off, 0.0), (k as f64 + off + 0.4, v)],
+                [(l as f64 + off, 0.0), (l as f64 + off + width, y as f64)],
                 color.filled(),
             )
         }))
@@ -409,7 +450,15 @@ pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, 
         )?;
     }
     svg("tip_speed", "Tip speed per extruding line", &|root| {
-        histogram(root, "tip speed over the part (mm/s)", &speeds, m.tip_speed)
+        let top = speeds.iter().copied().fold(m.tip_speed[1] * 1.2, f64::max);
+        histogram(
+            root,
+            "tip speed over the part (mm/s)",
+            "lines",
+            top,
+            m.tip_speed,
+            &[("program", PLAN, &speeds)],
+        )
     })?;
     svg(
         "tip_deviation",
@@ -425,59 +474,14 @@ pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, 
         )
     })?;
     svg("collisions", "Colliding lines per layer", &|root| {
-        bars(root, "colliding lines per layer", &per_layer)
+        bars(
+            root,
+            "colliding lines per layer",
+            "lines",
+            &[("program", PLAN, &per_layer)],
+        )
     })?;
     Ok(out)
-}
-
-fn histogram<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    caption: &str,
-    v: &[f64],
-    [vmin, vmax]: [f64; 2],
-) -> DrawResult {
-    root.fill(&WHITE).map_err(err)?;
-    let top = v.iter().copied().fold(vmax * 1.2, f64::max);
-    let bins = 60usize;
-    let w = top / bins as f64;
-    let mut h = vec![0usize; bins];
-    for &x in v {
-        h[((x / w) as usize).min(bins - 1)] += 1;
-    }
-    let ymax = h.iter().copied().max().unwrap_or(1).max(1) as f64;
-    let mut c = ChartBuilder::on(&root)
-        .margin(10)
-        .x_label_area_size(36)
-        .y_label_area_size(70)
-        .caption(caption, ("sans-serif", 18))
-        .build_cartesian_2d(0.0..top, (0.5..ymax * 2.0).log_scale())
-        .map_err(err)?;
-    c.configure_mesh()
-        .x_desc("mm/s")
-        .y_desc("lines")
-        .light_line_style(WHITE)
-        .draw()
-        .map_err(err)?;
-    c.draw_series(
-        [vmin, vmax].map(|v| PathElement::new([(v, 0.5), (v, ymax * 2.0)], RED.stroke_width(2))),
-    )
-    .map_err(err)?
-    .label(format!("[v_min, v_max] = [{vmin}, {vmax}]"))
-    .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], RED));
-    c.draw_series(h.iter().enumerate().filter(|(_, &n)| n > 0).map(|(b, &n)| {
-        let x0 = b as f64 * w;
-        Rectangle::new([(x0, 0.5), (x0 + 0.8 * w, n as f64)], PLAN.filled())
-    }))
-    .map_err(err)?
-    .label("program")
-    .legend(|(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], PLAN.filled()));
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
-    root.present().map_err(err)
 }
 
 fn line_chart<DB: DrawingBackend>(
@@ -528,37 +532,6 @@ fn line_chart<DB: DrawingBackend>(
         .border_style(BLACK)
         .draw()
         .map_err(err)?;
-    root.present().map_err(err)
-}
-
-fn bars<DB: DrawingBackend>(
-    root: DrawingArea<DB, Shift>,
-    caption: &str,
-    v: &[usize],
-) -> DrawResult {
-    root.fill(&WHITE).map_err(err)?;
-    let ymax = v.iter().copied().max().unwrap_or(0).max(1) as f64 * 1.15;
-    let n = v.len().max(1) as f64;
-    let mut c = ChartBuilder::on(&root)
-        .margin(10)
-        .x_label_area_size(36)
-        .y_label_area_size(60)
-        .caption(caption, ("sans-serif", 18))
-        .build_cartesian_2d(0.0..n, 0.0..ymax)
-        .map_err(err)?;
-    c.configure_mesh()
-        .x_desc("layer")
-        .y_desc("lines")
-        .light_line_style(WHITE)
-        .draw()
-        .map_err(err)?;
-    c.draw_series(v.iter().enumerate().map(|(k, &y)| {
-        Rectangle::new(
-            [(k as f64 + 0.1, 0.0), (k as f64 + 0.9, y as f64)],
-            PLAN.filled(),
-        )
-    }))
-    .map_err(err)?;
     root.present().map_err(err)
 }
 

@@ -64,28 +64,9 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
             min_stamp: u32::MAX,
         });
     }
-    // Post-order sweep (explicit stack: obvhs' reinsertion may place a child
-    // before its parent) filling every node's minimum stamp.
-    let mut stack = vec![(0usize, false)];
-    while let Some((i, children_done)) = stack.pop() {
-        match nodes[i].leaf_range() {
-            Some((first, count)) => {
-                nodes[i].min_stamp = (first..first + count)
-                    .map(|t| triangles[t as usize].stamp)
-                    .min()
-                    .unwrap_or(u32::MAX);
-            }
-            None => {
-                let l = nodes[i].packed as usize;
-                if children_done {
-                    nodes[i].min_stamp = nodes[l].min_stamp.min(nodes[l + 1].min_stamp);
-                } else {
-                    stack.push((i, true));
-                    stack.push((l, false));
-                    stack.push((l + 1, false));
-                }
-            }
-        }
+    let packed: Vec<u32> = nodes.iter().map(|n| n.packed).collect();
+    for (n, m) in nodes.iter_mut().zip(min_stamps(&packed, &triangles)) {
+        n.min_stamp = m;
     }
     // Traversal keeps at most depth + 1 entries on its fixed-size stack.
     let mut depth = vec![0u32; nodes.len()];
@@ -108,27 +89,47 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
     Ok(StampedBvh { nodes, triangles })
 }
 
-/// Recompute every node's minimum stamp from `tris` (after the
-/// triangles' stamps changed; the tree itself is kept).
-pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
+/// Every node's smallest stamp below it, for nodes given by their
+/// `packed` words ([`GpuNode`] layout: child index or leaf range) over
+/// `tris`: a post-order sweep (explicit stack: obvhs' reinsertion may
+/// place a child before its parent).
+fn min_stamps(packed: &[u32], tris: &[GpuTriangle]) -> Vec<u32> {
+    let leaf = |i: usize| {
+        GpuNode {
+            packed: packed[i],
+            ..GpuNode::default()
+        }
+        .leaf_range()
+    };
+    let mut out = vec![u32::MAX; packed.len()];
     let mut stack = vec![(0usize, false)];
     while let Some((i, children_done)) = stack.pop() {
-        match nodes[i].leaf_range() {
+        match leaf(i) {
             Some((first, count)) => {
-                nodes[i].min_stamp = (first..first + count)
+                out[i] = (first..first + count)
                     .map(|t| tris[t as usize].stamp)
                     .min()
                     .unwrap_or(u32::MAX);
             }
             None => {
-                let l = nodes[i].packed as usize;
+                let l = packed[i] as usize;
                 if children_done {
-                    nodes[i].min_stamp = nodes[l].min_stamp.min(nodes[l + 1].min_stamp);
+                    out[i] = out[l].min(out[l + 1]);
                 } else {
                     stack.extend([(i, true), (l, false), (l + 1, false)]);
                 }
             }
         }
+    }
+    out
+}
+
+/// Recompute every node's minimum stamp from `tris` (after the
+/// triangles' stamps changed; the tree itself is kept).
+pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
+    let packed: Vec<u32> = nodes.iter().map(|n| n.packed).collect();
+    for (n, m) in nodes.iter_mut().zip(min_stamps(&packed, tris)) {
+        n.min_stamp = m;
     }
 }
 

@@ -230,20 +230,18 @@ impl Scene {
         self.part_tris.len()
     }
 
-    /// The same scene with every part triangle's stamp `s > 0` replaced by
-    /// `stamp(s)` (the platform keeps 0) and the BVH's minimum stamps
-    /// recomputed: how a simulator makes material appear in the order a
-    /// program prints it rather than the toolpath's.
-    pub fn restamped(&self, stamp: impl Fn(u32) -> u32 + Sync) -> Scene {
+    /// Replace every part triangle's stamp `s > 0` by `stamp(s)` (the
+    /// platform keeps 0) and recompute the BVH's minimum stamps, in place:
+    /// how a simulator makes material appear in the order a program prints
+    /// it rather than the toolpath's.
+    pub fn restamp(&mut self, stamp: impl Fn(u32) -> u32 + Sync) {
         let map = |s: u32| if s == 0 { 0 } else { stamp(s) };
-        let mut out = self.clone();
-        out.part_tris
+        self.part_tris
             .par_iter_mut()
             .for_each(|t| t.stamp = map(t.stamp));
-        for g in &mut out.groups {
+        for g in &mut self.groups {
             g.stamps.par_iter_mut().for_each(|s| *s = map(*s));
         }
-        bvh::refresh_min_stamps(&mut out.part_nodes, &out.part_tris);
-        out
+        bvh::refresh_min_stamps(&mut self.part_nodes, &self.part_tris);
     }
 }

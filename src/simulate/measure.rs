@@ -148,17 +148,18 @@ pub struct Problem {
 }
 
 /// The travels of a program: maximal runs of lines that do not extrude
-/// between extruding ones, as `(first line, total |ΔC| in degrees)`.
+/// between extruding ones, as `(index of the first line in moves, total
+/// |ΔC| in degrees)`.
 pub fn travels(moves: &[GcodeMove]) -> Vec<(usize, f64)> {
     let mut out = Vec::new();
     let mut cur: Option<(usize, f64)> = None;
-    for mv in moves.iter().filter(|mv| mv.moves_axes()) {
+    for (i, mv) in moves.iter().enumerate().filter(|(_, mv)| mv.moves_axes()) {
         if mv.extrudes() {
             if let Some(c) = cur.take() {
                 out.push(c);
             }
         } else {
-            let c = cur.get_or_insert((mv.line, 0.0));
+            let c = cur.get_or_insert((i, 0.0));
             c.1 += (mv.to[4] - mv.from[4]).abs();
         }
     }
@@ -175,7 +176,7 @@ pub fn tip_range(m: &Machine, tool: u32) -> [f64; 2] {
     }
 }
 
-/// Every problem of the measured lines `reports` (of `moves`), in line order.
+/// Every problem of the measured lines `reports` (one per line of `moves`), in line order.
 pub fn problems(m: &Machine, moves: &[GcodeMove], reports: &[MoveReport]) -> Vec<Problem> {
     let mut out = Vec::new();
     let median = median(
@@ -212,16 +213,13 @@ pub fn problems(m: &Machine, moves: &[GcodeMove], reports: &[MoveReport]) -> Vec
             push(ProblemKind::Blob, r.e_per_mm);
         }
     }
-    for (line, c) in travels(moves) {
+    for (i, c) in travels(moves) {
         if c > 180.0 + 1e-6 {
             out.push(Problem {
-                line,
+                line: reports[i].line,
                 kind: ProblemKind::LongTravelTurn,
                 value: c,
-                layer: reports
-                    .iter()
-                    .find(|r| r.line == line)
-                    .and_then(|r| r.layer),
+                layer: reports[i].layer,
             });
         }
     }

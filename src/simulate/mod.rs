@@ -6,7 +6,7 @@
 //! 1. [`timeline`]: read as [`crate::io::gcode_read::read_program`] reads
 //!    it, the program prints the toolpath's layer surfaces in its own
 //!    order; [`Timeline`] says which material exists during each line, and
-//!    [`crate::scene::Scene::restamped`] turns that into a scene.
+//!    [`crate::scene::Scene::restamp`] turns that into a scene.
 //! 2. [`check_moves`]: every line that moves is proven free or colliding
 //!    with the evaluator, completely (the planner's
 //!    [`crate::plan::motion::Prover`]: samples close enough for the head's

@@ -9,7 +9,8 @@
 //! those two that lie under its bead (within half a bead width of the
 //! move's chord) — so a program that skips waypoints still prints them. Waypoints are numbered in the order they are first printed
 //! (the program's own order, whatever the toolpath's), and the scene is
-//! re-stamped with those numbers ([`Timeline::stamp`]).
+//! re-stamped with those numbers ([`Timeline::stamp`],
+//! [`crate::scene::Scene::restamp`]).
 //!
 //! During an extruding move every printed waypoint's material exists
 //! except the last one's — the bead the nozzle is laying, which the
@@ -39,8 +40,9 @@ pub struct Timeline {
 
 impl Timeline {
     /// The timeline of `moves` (as [`crate::io::gcode_read::read_program`]
-    /// reads them, with `m` and `m_tcp` interpolating joint and
-    /// tool-centre-point moves) over waypoints at `pos` indexed by `reader`.
+    /// reads them, on machine `m`: only the lines' end tips count, so the
+    /// interpolation does not matter) over waypoints at `pos` indexed by
+    /// `reader`.
     pub fn new(m: &Machine, reader: &NearestLayer, pos: &[[f64; 3]], moves: &[GcodeMove]) -> Self {
         let mut printed: Vec<Option<u32>> = vec![None; pos.len()];
         let mut cutoffs = Vec::with_capacity(moves.len());
@@ -70,15 +72,13 @@ impl Timeline {
             // The bead starts at its first point: the waypoint there is
             // printed (the first of a section has no move ending on it).
             if same_layer && distance_to_segment(pos[a], pa, pa) <= half_width {
+                // (A segment of length 0: the distance to the start tip.)
                 mark(a);
             }
             if same_layer && a != b && a.abs_diff(b) <= MAX_RUN {
-                let run: Box<dyn Iterator<Item = usize>> = if a < b {
-                    Box::new(a + 1..b)
-                } else {
-                    Box::new((b + 1..a).rev())
-                };
-                for w in run {
+                // The waypoints strictly between, in print direction.
+                let between = (1..a.abs_diff(b)).map(|k| if a < b { a + k } else { a - k });
+                for w in between {
                     if distance_to_segment(pos[w], pa, pb) <= half_width {
                         mark(w);
                     }

@@ -415,7 +415,8 @@ pub fn simulate_cpu(
 ) -> maamplan::simulate::Simulation {
     use maamplan::simulate;
     let timeline = simulate::timeline(m, toolpath, moves);
-    let scene = scene.restamped(|s| timeline.stamp(s));
+    let mut scene = scene.clone();
+    scene.restamp(|s| timeline.stamp(s));
     let cpu = maamplan::collide::cpu::CpuBackend::new(&scene);
     let (hits, queries) = simulate::check_moves(
         m,
@@ -429,4 +430,18 @@ pub fn simulate_cpu(
     )
     .unwrap();
     simulate::report(m, moves, &timeline, &hits, queries, m.margin)
+}
+
+/// A flat square of two triangles at height `z`.
+#[allow(dead_code)]
+pub fn plate(x: [f32; 2], y: [f32; 2], z: f32) -> Mesh {
+    Mesh {
+        vertices: vec![
+            [x[0], y[0], z],
+            [x[1], y[0], z],
+            [x[1], y[1], z],
+            [x[0], y[1], z],
+        ],
+        triangles: vec![[0, 1, 2], [0, 2, 3]],
+    }
 }
