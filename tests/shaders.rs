@@ -91,6 +91,11 @@ fn struct_layouts_match_rust() {
         ("ray_d", 96),
         ("inv_ray", 112),
         ("inv_cell", 124),
+        ("far_origin", 128),
+        ("far_cell", 140),
+        ("far_dims", 144),
+        ("far_offset", 156),
+        ("far_inv_cell", 160),
     ];
     for (name, off) in want {
         let got = offsets.iter().find(|(n, _)| n == name).map(|(_, o)| *o);
@@ -128,4 +133,6 @@ fn struct_layouts_match_rust() {
     assert_eq!(&p.inv_ray as *const _ as usize - base, 112);
     assert_eq!(&p.inv_cell as *const _ as usize - base, 124);
     assert_eq!(&p.grid_dims as *const _ as usize - base, 48);
+    assert_eq!(&p.far_dims as *const _ as usize - base, 144);
+    assert_eq!(&p.far_inv_cell as *const _ as usize - base, 160);
 }

@@ -85,6 +85,39 @@ fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
 
 // 1 = wholly outside and more than `margin` from the surface, -1 = wholly
 // inside, 0 = cannot tell.
+// cpu.rs `classify_far`: beyond the fine grid, the far grid's unsigned
+// distances, and beyond that the head's box.
+fn classify_far(c: vec3<f32>, r: f32, margin: f32) -> i32 {
+    let fx = (c.x - head.far_origin.x) * head.far_inv_cell;
+    let fy = (c.y - head.far_origin.y) * head.far_inv_cell;
+    let fz = (c.z - head.far_origin.z) * head.far_inv_cell;
+    let nx = head.far_dims.x;
+    let ny = head.far_dims.y;
+    let nz = head.far_dims.z;
+    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(nx) && fy < f32(ny) && fz < f32(nz)) {
+        let d = point_box_distance(c, head.aabb_min, head.aabb_max);
+        if d - head.grid_slack - margin > r {
+            return 1;
+        }
+        return 0;
+    }
+    let ix = min(u32(fx), nx - 1u);
+    let iy = min(u32(fy), ny - 1u);
+    let iz = min(u32(fz), nz - 1u);
+    let v = grid[head.far_offset + (iz * ny + iy) * nx + ix];
+    let slack = v - head.grid_slack - r - margin;
+    if slack <= 0.0 {
+        return 0;
+    }
+    let dx = c.x - (head.far_origin.x + (f32(ix) + 0.5) * head.far_cell);
+    let dy = c.y - (head.far_origin.y + (f32(iy) + 0.5) * head.far_cell);
+    let dz = c.z - (head.far_origin.z + (f32(iz) + 0.5) * head.far_cell);
+    if slack * slack > dx * dx + dy * dy + dz * dz {
+        return 1;
+    }
+    return 0;
+}
+
 fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     let fx = (c.x - head.grid_origin.x) * head.inv_cell;
     let fy = (c.y - head.grid_origin.y) * head.inv_cell;
@@ -93,11 +126,7 @@ fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     let ny = head.grid_dims.y;
     let nz = head.grid_dims.z;
     if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(nx) && fy < f32(ny) && fz < f32(nz)) {
-        let d = point_box_distance(c, head.aabb_min, head.aabb_max);
-        if d - head.grid_slack - margin > r {
-            return 1;
-        }
-        return 0;
+        return classify_far(c, r, margin);
     }
     let ix = min(u32(fx), nx - 1u);
     let iy = min(u32(fy), ny - 1u);

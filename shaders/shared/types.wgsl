@@ -48,6 +48,14 @@ struct HeadParams {
     ray_d: vec4<f32>,
     inv_ray: vec3<f32>,
     inv_cell: f32,
+    far_origin: vec3<f32>,
+    far_cell: f32,
+    far_dims: vec3<u32>,
+    far_offset: u32,
+    far_inv_cell: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Leaf encoding of Node.packed / PartNode.packed (src/scene/gpu_types.rs).

@@ -119,8 +119,7 @@ pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> 
     let [nx, ny, nz] = h.grid_dims;
     if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
     {
-        let d = point_box_distance(c, h.aabb_min, h.aabb_max);
-        return if d - h.grid_slack - margin > r { 1 } else { 0 };
+        return classify_far(h, grid, c, r, margin);
     }
     let ix = (fx as u32).min(nx - 1);
     let iy = (fy as u32).min(ny - 1);
@@ -145,6 +144,39 @@ pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> 
         } else {
             1
         }
+    } else {
+        0
+    }
+}
+
+/// [`classify`] beyond the fine grid: the far grid's unsigned distances
+/// (everything there is outside the head), and beyond that the head's box.
+#[inline(always)]
+pub fn classify_far(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
+    let fx = (c[0] - h.far_origin[0]) * h.far_inv_cell;
+    let fy = (c[1] - h.far_origin[1]) * h.far_inv_cell;
+    let fz = (c[2] - h.far_origin[2]) * h.far_inv_cell;
+    let [nx, ny, nz] = h.far_dims;
+    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
+    {
+        let d = point_box_distance(c, h.aabb_min, h.aabb_max);
+        return if d - h.grid_slack - margin > r { 1 } else { 0 };
+    }
+    let ix = (fx as u32).min(nx - 1);
+    let iy = (fy as u32).min(ny - 1);
+    let iz = (fz as u32).min(nz - 1);
+    let v = grid[(h.far_offset + (iz * ny + iy) * nx + ix) as usize];
+    let slack = v - h.grid_slack - r - margin;
+    if slack <= 0.0 {
+        return 0;
+    }
+    let d = [
+        c[0] - (h.far_origin[0] + (ix as f32 + 0.5) * h.far_cell),
+        c[1] - (h.far_origin[1] + (iy as f32 + 0.5) * h.far_cell),
+        c[2] - (h.far_origin[2] + (iz as f32 + 0.5) * h.far_cell),
+    ];
+    if slack * slack > d[0] * d[0] + d[1] * d[1] + d[2] * d[2] {
+        1
     } else {
         0
     }

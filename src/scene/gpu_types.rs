@@ -117,7 +117,7 @@ pub struct GpuQuery {
     pub _pad: [u32; 2],
 }
 
-/// The head's scalar parameters, 128 bytes.
+/// The head's scalar parameters, 176 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuHeadParams {
@@ -149,10 +149,24 @@ pub struct GpuHeadParams {
     pub inv_ray: [f32; 3],
     /// `1 / cell`.
     pub inv_cell: f32,
+    /// Far grid origin (corner of its cell 0): a coarse grid around the
+    /// fine one, read only where the fine grid does not reach.
+    pub far_origin: [f32; 3],
+    /// Far grid cell size (mm).
+    pub far_cell: f32,
+    /// Far grid cell counts along x, y, z.
+    pub far_dims: [u32; 3],
+    /// Index of the far grid's first cell in the grid buffer (after the
+    /// fine grid's cells).
+    pub far_offset: u32,
+    /// `1 / far_cell`.
+    pub far_inv_cell: f32,
+    /// Padding to 16-byte multiples.
+    pub _pad: [u32; 3],
 }
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuPartNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuQuery>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 128);
+const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 176);
