@@ -117,7 +117,8 @@ impl Head {
         let dims: [u32; 3] = std::array::from_fn(|k| {
             (((aabb.max[k] - aabb.min[k]) + 2.0 * band) / cell).ceil() as u32 + 1
         });
-        let mut grid = distance_grid(&mesh, origin, cell, dims, band);
+        let bvh = (nodes.as_slice(), triangles.as_slice());
+        let mut grid = distance_grid(&mesh, bvh, origin, cell, dims, band);
 
         // The far grid: FAR_COARSE times coarser, reaching one head extent
         // beyond the fine grid on every side, so big part nodes below and
@@ -130,9 +131,7 @@ impl Head {
             ((dims[k] as f32 * cell + 2.0 * reach) / far_cell).ceil() as u32
         });
         let far_offset = grid.len() as u32;
-        grid.extend(far_grid(
-            &nodes, &triangles, &aabb, far_origin, far_cell, far_dims,
-        ));
+        grid.extend(far_grid(bvh, &aabb, far_origin, far_cell, far_dims));
 
         let params = GpuHeadParams {
             aabb_min: aabb.min,
@@ -174,13 +173,39 @@ impl Head {
     }
 }
 
+/// The head BVH's nodes and its triangles in leaf order.
+type HeadBvh<'a> = (&'a [GpuNode], &'a [GpuTriangle]);
+
 /// Signed distances at cell centres, capped at `band`: exact distances in a
 /// band around each triangle, signs from vertical ray parity per column.
-fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) -> Vec<f32> {
+fn distance_grid(
+    mesh: &Mesh,
+    bvh: HeadBvh,
+    origin: V3,
+    cell: f32,
+    dims: [u32; 3],
+    band: f32,
+) -> Vec<f32> {
     let [nx, ny, nz] = dims.map(|d| d as usize);
     let centre = |i: usize, k: usize| origin[k] as f64 + (i as f64 + 0.5) * cell as f64;
     let tris: Vec<[[f64; 3]; 3]> = (0..mesh.triangles.len())
         .map(|i| mesh.corners(i).map(|v| v.map(|c| c as f64)))
+        .collect();
+    // Unit normal and offset per triangle: a column meets the band around
+    // a triangle only where it meets the slab |n·p − d| ≤ band.
+    let planes: Vec<([f64; 3], f64)> = tris
+        .iter()
+        .map(|t| {
+            let (u, v) = (sub64(t[1], t[0]), sub64(t[2], t[0]));
+            let n = [
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            ];
+            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let n = n.map(|c| c / l);
+            (n, n[0] * t[0][0] + n[1] * t[0][1] + n[2] * t[0][2])
+        })
         .collect();
     let band64 = band as f64;
 
@@ -192,7 +217,7 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
             let (x, y) = (centre(ix, 0), centre(iy, 1));
             let mut dist = vec![band64; nz];
             let mut crossings: Vec<f64> = Vec::new();
-            for t in &tris {
+            for (t, (n, d)) in tris.iter().zip(&planes) {
                 let lo = [0, 1, 2].map(|k| t[0][k].min(t[1][k]).min(t[2][k]));
                 let hi = [0, 1, 2].map(|k| t[0][k].max(t[1][k]).max(t[2][k]));
                 if x >= lo[0] - band64
@@ -200,11 +225,19 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
                     && y >= lo[1] - band64
                     && y <= hi[1] + band64
                 {
-                    let k0 = (((lo[2] - band64 - origin[2] as f64) / cell as f64)
-                        .floor()
-                        .max(0.0)) as usize;
-                    let k1 = ((((hi[2] + band64 - origin[2] as f64) / cell as f64).ceil())
-                        as usize)
+                    // The slab's z range on this column (one cell wider each
+                    // way for rounding), within the box's.
+                    let (mut z0, mut z1) = (lo[2] - band64, hi[2] + band64);
+                    let off = d - n[0] * x - n[1] * y;
+                    if n[2].abs() > 1e-9 {
+                        let (a, b) = ((off - band64) / n[2], (off + band64) / n[2]);
+                        z0 = z0.max(a.min(b) - cell as f64);
+                        z1 = z1.min(a.max(b) + cell as f64);
+                    } else if off.abs() > band64 + cell as f64 {
+                        z1 = z0 - 1.0;
+                    }
+                    let k0 = (((z0 - origin[2] as f64) / cell as f64).floor().max(0.0)) as usize;
+                    let k1 = ((((z1 - origin[2] as f64) / cell as f64).ceil()).max(0.0) as usize)
                         .min(nz);
                     for (k, d) in dist.iter_mut().enumerate().take(k1).skip(k0) {
                         let p = [x, y, centre(k, 2)];
@@ -253,10 +286,7 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
                 (c / cdims[0]) % cdims[1],
                 c / (cdims[0] * cdims[1]),
             );
-            let p = [ccentre(i, 0), ccentre(j, 1), ccentre(k, 2)];
-            tris.iter()
-                .map(|t| point_triangle_distance(p, t[0], t[1], t[2]))
-                .fold(f64::INFINITY, f64::min)
+            nearest_distance(bvh, [ccentre(i, 0), ccentre(j, 1), ccentre(k, 2)])
         })
         .collect();
     grid.par_iter_mut().enumerate().for_each(|(idx, v)| {
@@ -278,20 +308,11 @@ fn distance_grid(mesh: &Mesh, origin: V3, cell: f32, dims: [u32; 3], band: f32) 
     grid
 }
 
-/// Unsigned distances from the far grid's cell centres to the head
-/// (nearest triangle, over the head BVH); 0 (a bound that settles nothing)
-/// for centres inside the head's box, which lie in the fine grid's reach
-/// and are never read.
-fn far_grid(
-    nodes: &[GpuNode],
-    tris: &[GpuTriangle],
-    aabb: &Aabb,
-    origin: V3,
-    cell: f32,
-    dims: [u32; 3],
-) -> Vec<f32> {
+/// Unsigned distances from the far grid's cell centres to the head; 0 (a
+/// bound that settles nothing) for centres inside the head's box, which
+/// lie in the fine grid's reach and are never read.
+fn far_grid(bvh: HeadBvh, aabb: &Aabb, origin: V3, cell: f32, dims: [u32; 3]) -> Vec<f32> {
     let [nx, ny, nz] = dims.map(|d| d as usize);
-    let f64v = |v: V3| v.map(|x| x as f64);
     (0..nx * ny * nz)
         .into_par_iter()
         .map(|idx| {
@@ -301,41 +322,54 @@ fn far_grid(
             if point_box_distance(p, aabb.min, aabb.max) == 0.0 {
                 return 0.0;
             }
-            let p64 = f64v(p);
-            let mut best = f64::INFINITY;
-            let mut stack = vec![0u32];
-            while let Some(n) = stack.pop() {
-                let node = &nodes[n as usize];
-                // (1 − 1e-6): the f32 box distance may round up.
-                if point_box_distance(p, node.min, node.max) as f64 * (1.0 - 1e-6) >= best {
-                    continue;
-                }
-                match node.leaf_range() {
-                    Some((first, count)) => {
-                        for t in &tris[first as usize..(first + count) as usize] {
-                            let d =
-                                point_triangle_distance(p64, f64v(t.v0), f64v(t.v1), f64v(t.v2));
-                            best = best.min(d);
-                        }
-                    }
-                    None => {
-                        let (l, r) = (node.packed, node.packed + 1);
-                        let dl =
-                            point_box_distance(p, nodes[l as usize].min, nodes[l as usize].max);
-                        let dr =
-                            point_box_distance(p, nodes[r as usize].min, nodes[r as usize].max);
-                        // Nearer child on top.
-                        if dl <= dr {
-                            stack.extend([r, l]);
-                        } else {
-                            stack.extend([l, r]);
-                        }
-                    }
-                }
-            }
-            best as f32
+            nearest_distance(bvh, p.map(|x| x as f64)) as f32
         })
         .collect()
+}
+
+/// Distance from `p` to the nearest head triangle: the BVH walked nearer
+/// child first, subtrees pruned by their box's distance (in f32, so with
+/// 1e-4 mm to spare).
+fn nearest_distance((nodes, tris): HeadBvh, p: [f64; 3]) -> f64 {
+    let pf = p.map(|x| x as f32);
+    let box_distance = |n: u32| {
+        let node = &nodes[n as usize];
+        point_box_distance(pf, node.min, node.max) as f64 - 1e-4
+    };
+    let f64v = |v: V3| v.map(|x| x as f64);
+    let mut best = f64::INFINITY;
+    let mut stack = vec![0u32];
+    while let Some(n) = stack.pop() {
+        if box_distance(n) >= best {
+            continue;
+        }
+        match nodes[n as usize].leaf_range() {
+            Some((first, count)) => {
+                for t in &tris[first as usize..(first + count) as usize] {
+                    best = best.min(point_triangle_distance(
+                        p,
+                        f64v(t.v0),
+                        f64v(t.v1),
+                        f64v(t.v2),
+                    ));
+                }
+            }
+            None => {
+                let (l, r) = (nodes[n as usize].packed, nodes[n as usize].packed + 1);
+                // Nearer child on top.
+                if box_distance(l) <= box_distance(r) {
+                    stack.extend([r, l]);
+                } else {
+                    stack.extend([l, r]);
+                }
+            }
+        }
+    }
+    best
+}
+
+fn sub64(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// Height where the vertical line through `(x, y)` crosses triangle `t`,
