@@ -83,70 +83,65 @@ fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// 1 = wholly outside and more than `margin` from the surface, -1 = wholly
-// inside, 0 = cannot tell.
 // cpu.rs `classify_far`: beyond the fine grid, the far grid's unsigned
 // distances, and beyond that the head's box.
 fn classify_far(c: vec3<f32>, r: f32, margin: f32) -> i32 {
-    let fx = (c.x - head.far_origin.x) * head.far_inv_cell;
-    let fy = (c.y - head.far_origin.y) * head.far_inv_cell;
-    let fz = (c.z - head.far_origin.z) * head.far_inv_cell;
-    let nx = head.far_dims.x;
-    let ny = head.far_dims.y;
-    let nz = head.far_dims.z;
-    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(nx) && fy < f32(ny) && fz < f32(nz)) {
+    let cell = grid_cell(c, head.far_origin, head.far_inv_cell, head.far_dims);
+    if cell.w == 0u {
         let d = point_box_distance(c, head.aabb_min, head.aabb_max);
         if d - head.grid_slack - margin > r {
             return 1;
         }
         return 0;
     }
-    let ix = min(u32(fx), nx - 1u);
-    let iy = min(u32(fy), ny - 1u);
-    let iz = min(u32(fz), nz - 1u);
-    let v = grid[head.far_offset + (iz * ny + iy) * nx + ix];
+    let v = grid[head.far_offset + (cell.z * head.far_dims.y + cell.y) * head.far_dims.x + cell.x];
     let slack = v - head.grid_slack - r - margin;
-    if slack <= 0.0 {
-        return 0;
-    }
-    let dx = c.x - (head.far_origin.x + (f32(ix) + 0.5) * head.far_cell);
-    let dy = c.y - (head.far_origin.y + (f32(iy) + 0.5) * head.far_cell);
-    let dz = c.z - (head.far_origin.z + (f32(iz) + 0.5) * head.far_cell);
-    if slack * slack > dx * dx + dy * dy + dz * dz {
+    if clears_centre(c, head.far_origin, head.far_cell, cell.xyz, slack) {
         return 1;
     }
     return 0;
 }
 
+// cpu.rs `classify`: 1 = wholly outside and more than `margin` from the
+// surface, -1 = wholly inside, 0 = cannot tell.
 fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
-    let fx = (c.x - head.grid_origin.x) * head.inv_cell;
-    let fy = (c.y - head.grid_origin.y) * head.inv_cell;
-    let fz = (c.z - head.grid_origin.z) * head.inv_cell;
-    let nx = head.grid_dims.x;
-    let ny = head.grid_dims.y;
-    let nz = head.grid_dims.z;
-    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(nx) && fy < f32(ny) && fz < f32(nz)) {
+    let cell = grid_cell(c, head.grid_origin, head.inv_cell, head.grid_dims);
+    if cell.w == 0u {
         return classify_far(c, r, margin);
     }
-    let ix = min(u32(fx), nx - 1u);
-    let iy = min(u32(fy), ny - 1u);
-    let iz = min(u32(fz), nz - 1u);
-    let v = grid[(iz * ny + iy) * nx + ix];
+    let v = grid[(cell.z * head.grid_dims.y + cell.y) * head.grid_dims.x + cell.x];
     let m = select(margin, 0.0, v < 0.0);
     let slack = abs(v) - head.grid_slack - r - m;
-    if slack <= 0.0 {
+    if !clears_centre(c, head.grid_origin, head.cell, cell.xyz, slack) {
         return 0;
     }
-    let dx = c.x - (head.grid_origin.x + (f32(ix) + 0.5) * head.cell);
-    let dy = c.y - (head.grid_origin.y + (f32(iy) + 0.5) * head.cell);
-    let dz = c.z - (head.grid_origin.z + (f32(iz) + 0.5) * head.cell);
-    if slack * slack > dx * dx + dy * dy + dz * dz {
-        if v < 0.0 {
-            return -1;
-        }
-        return 1;
+    if v < 0.0 {
+        return -1;
     }
-    return 0;
+    return 1;
+}
+
+// cpu.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside
+// the grid.
+fn grid_cell(c: vec3<f32>, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> vec4<u32> {
+    let fx = (c.x - origin.x) * inv_cell;
+    let fy = (c.y - origin.y) * inv_cell;
+    let fz = (c.z - origin.z) * inv_cell;
+    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < f32(dims.x) && fy < f32(dims.y) && fz < f32(dims.z)) {
+        return vec4<u32>(0u, 0u, 0u, 0u);
+    }
+    return vec4<u32>(min(u32(fx), dims.x - 1u), min(u32(fy), dims.y - 1u), min(u32(fz), dims.z - 1u), 1u);
+}
+
+// cpu.rs `clears_centre`.
+fn clears_centre(c: vec3<f32>, origin: vec3<f32>, cell: f32, ijk: vec3<u32>, slack: f32) -> bool {
+    if slack <= 0.0 {
+        return false;
+    }
+    let dx = c.x - (origin.x + (f32(ijk.x) + 0.5) * cell);
+    let dy = c.y - (origin.y + (f32(ijk.y) + 0.5) * cell);
+    let dz = c.z - (origin.z + (f32(ijk.z) + 0.5) * cell);
+    return slack * slack > dx * dx + dy * dy + dz * dz;
 }
 
 // Möller against the head, or, with a positive margin, closer than it:

@@ -111,41 +111,22 @@ pub fn to_head(q: &GpuQuery, p: V3) -> V3 {
 /// -1 = wholly inside, 0 = cannot tell.
 #[inline(always)]
 pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
-    // Any cell gives a valid bound (it is measured from that cell's centre),
-    // so the index needs no exact division.
-    let fx = (c[0] - h.grid_origin[0]) * h.inv_cell;
-    let fy = (c[1] - h.grid_origin[1]) * h.inv_cell;
-    let fz = (c[2] - h.grid_origin[2]) * h.inv_cell;
-    let [nx, ny, nz] = h.grid_dims;
-    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
-    {
+    let Some([ix, iy, iz]) = grid_cell(c, h.grid_origin, h.inv_cell, h.grid_dims) else {
         return classify_far(h, grid, c, r, margin);
-    }
-    let ix = (fx as u32).min(nx - 1);
-    let iy = (fy as u32).min(ny - 1);
-    let iz = (fz as u32).min(nz - 1);
+    };
+    let [nx, ny, _] = h.grid_dims;
     let v = grid[((iz * ny + iy) * nx + ix) as usize];
     // Decisive when |v| − |c − centre| − grid_slack > r, plus the query's
-    // margin on the outside; squared to skip a sqrt. (x − 0 is exact, so
-    // margin 0 rounds as if the term were absent.)
+    // margin on the outside. (x − 0 is exact, so margin 0 rounds as if the
+    // term were absent.)
     let m = if v < 0.0 { 0.0 } else { margin };
     let slack = v.abs() - h.grid_slack - r - m;
-    if slack <= 0.0 {
-        return 0;
-    }
-    let d = [
-        c[0] - (h.grid_origin[0] + (ix as f32 + 0.5) * h.cell),
-        c[1] - (h.grid_origin[1] + (iy as f32 + 0.5) * h.cell),
-        c[2] - (h.grid_origin[2] + (iz as f32 + 0.5) * h.cell),
-    ];
-    if slack * slack > d[0] * d[0] + d[1] * d[1] + d[2] * d[2] {
-        if v < 0.0 {
-            -1
-        } else {
-            1
-        }
-    } else {
+    if !clears_centre(c, h.grid_origin, h.cell, [ix, iy, iz], slack) {
         0
+    } else if v < 0.0 {
+        -1
+    } else {
+        1
     }
 }
 
@@ -153,33 +134,54 @@ pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> 
 /// (everything there is outside the head), and beyond that the head's box.
 #[inline(always)]
 pub fn classify_far(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
-    let fx = (c[0] - h.far_origin[0]) * h.far_inv_cell;
-    let fy = (c[1] - h.far_origin[1]) * h.far_inv_cell;
-    let fz = (c[2] - h.far_origin[2]) * h.far_inv_cell;
-    let [nx, ny, nz] = h.far_dims;
-    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
-    {
+    let Some([ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) else {
         let d = point_box_distance(c, h.aabb_min, h.aabb_max);
         return if d - h.grid_slack - margin > r { 1 } else { 0 };
-    }
-    let ix = (fx as u32).min(nx - 1);
-    let iy = (fy as u32).min(ny - 1);
-    let iz = (fz as u32).min(nz - 1);
+    };
+    let [nx, ny, _] = h.far_dims;
     let v = grid[(h.far_offset + (iz * ny + iy) * nx + ix) as usize];
     let slack = v - h.grid_slack - r - margin;
-    if slack <= 0.0 {
-        return 0;
-    }
-    let d = [
-        c[0] - (h.far_origin[0] + (ix as f32 + 0.5) * h.far_cell),
-        c[1] - (h.far_origin[1] + (iy as f32 + 0.5) * h.far_cell),
-        c[2] - (h.far_origin[2] + (iz as f32 + 0.5) * h.far_cell),
-    ];
-    if slack * slack > d[0] * d[0] + d[1] * d[1] + d[2] * d[2] {
+    if clears_centre(c, h.far_origin, h.far_cell, [ix, iy, iz], slack) {
         1
     } else {
         0
     }
+}
+
+/// The cell holding `c` in a grid with corner `origin`, `1 / cell` =
+/// `inv_cell` and `dims` cells, or `None` outside it. Any cell gives a
+/// valid bound (it is measured from that cell's centre), so the index
+/// needs no exact division.
+#[inline(always)]
+pub fn grid_cell(c: V3, origin: V3, inv_cell: f32, dims: [u32; 3]) -> Option<[u32; 3]> {
+    let fx = (c[0] - origin[0]) * inv_cell;
+    let fy = (c[1] - origin[1]) * inv_cell;
+    let fz = (c[2] - origin[2]) * inv_cell;
+    let [nx, ny, nz] = dims;
+    if !(fx >= 0.0 && fy >= 0.0 && fz >= 0.0 && fx < nx as f32 && fy < ny as f32 && fz < nz as f32)
+    {
+        return None;
+    }
+    Some([
+        (fx as u32).min(nx - 1),
+        (fy as u32).min(ny - 1),
+        (fz as u32).min(nz - 1),
+    ])
+}
+
+/// Is `slack` positive and larger than the distance from `c` to the centre
+/// of cell `ijk` (squared, to skip a sqrt)?
+#[inline(always)]
+pub fn clears_centre(c: V3, origin: V3, cell: f32, [ix, iy, iz]: [u32; 3], slack: f32) -> bool {
+    if slack <= 0.0 {
+        return false;
+    }
+    let d = [
+        c[0] - (origin[0] + (ix as f32 + 0.5) * cell),
+        c[1] - (origin[1] + (iy as f32 + 0.5) * cell),
+        c[2] - (origin[2] + (iz as f32 + 0.5) * cell),
+    ];
+    slack * slack > d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
 }
 
 /// Does the head at query `q` touch, contain or come closer than `q.margin`
