@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::plate;
+use common::{cli, plate};
 
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
@@ -224,14 +224,6 @@ fn support_layers_use_the_support_extruder() {
         support_feeds.iter().all(|&f| f == 2500.0),
         "{support_feeds:?}"
     );
-}
-
-fn cli(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .unwrap()
 }
 
 fn write_folder(dir: &Path, tp: &Toolpath) -> String {

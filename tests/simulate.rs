@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::plate;
+use common::{cli, plate};
 
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
@@ -20,7 +20,6 @@ use maamplan::scene::{Scene, SceneConfig};
 use maamplan::simulate::ProblemKind;
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
 use std::path::Path;
-use std::process::Command;
 
 /// Three rows of waypoints whose nozzles lean, the first turning fast
 /// along its row (the rotary axes set the pace), the others slowly (the
@@ -305,14 +304,6 @@ fn on_the_reference_gcode_simulate_finds_what_the_fcl_audit_finds() {
         s.speed_violation_pct
     );
     assert_eq!(s.extruding_moves, 41_473);
-}
-
-fn cli(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
-        .output()
-        .unwrap()
 }
 
 #[test]

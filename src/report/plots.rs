@@ -9,6 +9,7 @@ use super::{layer_table, tip_speeds};
 use crate::kinematics::Machine;
 use crate::plan::Plan;
 use crate::simulate::{MoveReport, Simulation};
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use std::path::Path;
@@ -335,6 +336,33 @@ fn histogram<DB: DrawingBackend>(
     root.present().map_err(err)
 }
 
+/// Linear axes on a whole page: the report's margins, a caption, `y_label`
+/// pixels for the y labels and a light grid.
+fn linear_chart<'a, DB: DrawingBackend>(
+    root: &'a DrawingArea<DB, Shift>,
+    caption: &str,
+    y_label: u32,
+    x: std::ops::Range<f64>,
+    y: std::ops::Range<f64>,
+    x_desc: &str,
+    y_desc: Option<&str>,
+) -> Result<ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>, String> {
+    let mut c = ChartBuilder::on(root)
+        .margin(10)
+        .x_label_area_size(36)
+        .y_label_area_size(y_label)
+        .caption(caption, ("sans-serif", 18))
+        .build_cartesian_2d(x, y)
+        .map_err(err)?;
+    let mut mesh = c.configure_mesh();
+    mesh.x_desc(x_desc);
+    if let Some(d) = y_desc {
+        mesh.y_desc(d);
+    }
+    mesh.light_line_style(WHITE).draw().map_err(err)?;
+    Ok(c)
+}
+
 /// Per layer, one bar per series side by side.
 fn bars<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
@@ -351,19 +379,7 @@ fn bars<DB: DrawingBackend>(
         .max(1) as f64
         * 1.15;
     let n = series.iter().map(|s| s.2.len()).max().unwrap_or(0).max(1) as f64;
-    let mut c = ChartBuilder::on(&root)
-        .margin(10)
-        .x_label_area_size(36)
-        .y_label_area_size(60)
-        .caption(caption, ("sans-serif", 18))
-        .build_cartesian_2d(0.0..n, 0.0..ymax)
-        .map_err(err)?;
-    c.configure_mesh()
-        .x_desc("layer")
-        .y_desc(y_desc)
-        .light_line_style(WHITE)
-        .draw()
-        .map_err(err)?;
+    let mut c = linear_chart(&root, caption, 60, 0.0..n, 0.0..ymax, "layer", Some(y_desc))?;
     let width = 0.8 / series.len().max(1) as f64;
     for (k, &(label, color, v)) in series.iter().enumerate() {
         let off = 0.1 + k as f64 * width;
@@ -499,18 +515,7 @@ fn line_chart<DB: DrawingBackend>(
         .fold(0.0, f64::max)
         .max(1e-3)
         * 1.1;
-    let mut c = ChartBuilder::on(&root)
-        .margin(10)
-        .x_label_area_size(36)
-        .y_label_area_size(70)
-        .caption(caption, ("sans-serif", 18))
-        .build_cartesian_2d(0.0..n, 0.0..hi)
-        .map_err(err)?;
-    c.configure_mesh()
-        .x_desc("extruding line")
-        .light_line_style(WHITE)
-        .draw()
-        .map_err(err)?;
+    let mut c = linear_chart(&root, caption, 70, 0.0..n, 0.0..hi, "extruding line", None)?;
     if let Some(l) = limit {
         c.draw_series(std::iter::once(PathElement::new(
             [(0.0, l), (n, l)],

@@ -445,3 +445,13 @@ pub fn plate(x: [f32; 2], y: [f32; 2], z: f32) -> Mesh {
         triangles: vec![[0, 1, 2], [0, 2, 3]],
     }
 }
+
+/// Run the `maamplan` binary with `args` (Mesa's loader pointed at a
+/// harmless runtime folder).
+pub fn cli(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_maamplan"))
+        .args(args)
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .output()
+        .unwrap()
+}
