@@ -45,6 +45,17 @@ fn err<E: std::fmt::Debug>(e: E) -> String {
     format!("{e:?}")
 }
 
+/// One figure drawn into an SVG string of the report's size.
+fn svg_figure(
+    name: String,
+    title: String,
+    draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult,
+) -> Result<Figure, String> {
+    let mut svg = String::new();
+    draw(SVGBackend::with_string(&mut svg, SIZE).into_drawing_area())?;
+    Ok(Figure { name, title, svg })
+}
+
 /// Every figure of `plan`.
 pub fn figures(m: &Machine, plan: &Plan) -> Result<Vec<Figure>, String> {
     fonts();
@@ -53,16 +64,7 @@ pub fn figures(m: &Machine, plan: &Plan) -> Result<Vec<Figure>, String> {
                    title: String,
                    draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult|
      -> DrawResult {
-        let mut s = String::new();
-        {
-            let root = SVGBackend::with_string(&mut s, SIZE).into_drawing_area();
-            draw(root)?;
-        }
-        out.push(Figure {
-            name,
-            title,
-            svg: s,
-        });
+        out.push(svg_figure(name, title, draw)?);
         Ok(())
     };
     let layers = layer_table(plan).len();
@@ -431,16 +433,7 @@ pub fn simulation_figures(m: &Machine, sim: &Simulation) -> Result<Vec<Figure>, 
                    title: &str,
                    draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult|
      -> DrawResult {
-        let mut s = String::new();
-        {
-            let root = SVGBackend::with_string(&mut s, SIZE).into_drawing_area();
-            draw(root)?;
-        }
-        out.push(Figure {
-            name: name.into(),
-            title: title.into(),
-            svg: s,
-        });
+        out.push(svg_figure(name.into(), title.into(), draw)?);
         Ok(())
     };
     let alpha = crate::plan::PlanOptions::default().alpha.to_degrees();
