@@ -14,7 +14,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let q = queries[pair.x];
     let h = head_tri(q, part_tri(pair.y));
-    if tri_hits_exact(h.a, h.b, h.c, q.margin) {
+    if tri_hits_exact(h.a, h.b, h.c, h.margin) {
         atomicOr(&results[pair.x], 1u);
     }
 }

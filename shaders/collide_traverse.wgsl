@@ -20,7 +20,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         sp -= 1u;
         let node = part_node(stack[sp]);
         if node.min_stamp < q.cutoff {
-            let cls = classify(to_head(q, node.center), node.radius, q.margin);
+            let c = to_head(q, node.center);
+            let cls = classify(c, node.radius, sphere_margin(q, c, node.radius));
             if cls < 0 {
                 hit = true;
             } else if cls == 0 {

@@ -83,6 +83,48 @@ fn random_scenes_asymmetric_head() {
 }
 
 #[test]
+fn random_scenes_sloped_margins() {
+    let mut decided_by_slope = [0; SLOPED.len()];
+    for seed in 30..34u64 {
+        let mut r = rng(seed);
+        let scene = star_scene(&mut r, 11, 3.0, [1.2, -0.4]);
+        let base = random_queries(&mut r, &scene, 400);
+        let cpu = CpuBackend::new(&scene);
+        let parry = ParryBackend::new(&scene).unwrap();
+        for (k, (margin, slope)) in SLOPED.into_iter().enumerate() {
+            let what = format!("seed {seed}, margin {margin} + {slope} per mm");
+            let queries = with_slope(&base, margin, slope);
+            let (hit, free) = agree(&scene, &queries, &[&cpu, &parry], &what);
+            assert!(
+                hit > 20 && free > 20,
+                "{what}: {hit} colliding / {free} free"
+            );
+            // The slope decides verdicts of its own: poses free at the
+            // plain margin that collide once it grows away from the tip.
+            let plain = BruteBackend::new(&scene)
+                .evaluate(&with_margin(&base, margin))
+                .unwrap();
+            let sloped = cpu.evaluate(&queries).unwrap();
+            assert!(
+                plain.iter().zip(&sloped).all(|(p, s)| !p || *s),
+                "{what}: a slope freed a pose"
+            );
+            let decided = plain
+                .iter()
+                .zip(&sloped)
+                .filter(|(p, s)| !**p && **s)
+                .count();
+            eprintln!("{what}: {hit} colliding, {decided} by the slope");
+            decided_by_slope[k] += decided;
+        }
+    }
+    assert!(
+        decided_by_slope.iter().all(|&d| d >= 10),
+        "verdicts the slopes decided: {decided_by_slope:?}"
+    );
+}
+
+#[test]
 fn verdicts_flip_at_each_poses_own_distance() {
     for seed in 20..23u64 {
         let mut r = rng(seed);
@@ -177,11 +219,13 @@ fn fully_contained_triangles_collide() {
         pose: pose([0.0, 0.0, 20.0], [0.0, 0.0, 1.0]),
         cutoff: 2,
         margin: 0.0,
+        slope: 0.0,
     };
     let above = Query {
         pose: pose([0.0, 0.0, 32.0], [0.0, 0.0, 1.0]),
         cutoff: 2,
         margin: 0.0,
+        slope: 0.0,
     };
     let not_yet = Query {
         cutoff: 1,
@@ -225,6 +269,7 @@ fn coplanar_and_edge_touching_contacts() {
         pose: pose(tip, axis),
         cutoff: 2,
         margin: 0.0,
+        slope: 0.0,
     };
     let queries = [
         // Head's top face exactly on the square's plane, overlapping: coplanar contact.
@@ -280,6 +325,7 @@ fn stamps_cut_a_layer_in_half() {
             pose: p,
             cutoff,
             margin: 0.0,
+            slope: 0.0,
         })
         .collect();
     let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();

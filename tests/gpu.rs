@@ -68,9 +68,10 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
             return;
         };
         let base = random_queries(&mut r, &scene, 500);
-        for margin in MARGINS {
-            let queries = with_margin(&base, margin);
-            let what = format!("seed {seed}, margin {margin}");
+        let margins = MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED);
+        for (margin, slope) in margins {
+            let queries = with_slope(&base, margin, slope);
+            let what = format!("seed {seed}, margin {margin} + {slope} per mm");
             let (hits, got) = agree_with(&scene, &queries, &g, &what);
             let brute = BruteBackend::new(&scene).evaluate(&queries).unwrap();
             let near = near_contacts_only(

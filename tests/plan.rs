@@ -153,6 +153,7 @@ fn simple_curve_plan_meets_the_paper() {
                 pose: machine.pose(&mv.to),
                 cutoff: g as u32 + 1,
                 margin: 0.0,
+                slope: 0.0,
             })
         })
         .collect();

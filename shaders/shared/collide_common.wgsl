@@ -232,12 +232,31 @@ fn point_in_head(p: vec3<f32>) -> bool {
     return (crossings & 1u) == 1u;
 }
 
-// The triangle in the head frame with its bounding sphere's classification
-// (1 outside, -1 inside, 0 undecided); the first half of cpu.rs `tri_hits`.
+// cpu.rs `sphere_margin`: the margin everything inside the sphere (c, r)
+// (head frame) must at least keep.
+fn sphere_margin(q: Query, c: vec3<f32>, r: f32) -> f32 {
+    if q.slope > 0.0 {
+        return q.margin + q.slope * (len3(c) + r);
+    }
+    return q.margin;
+}
+
+// cpu.rs `triangle_margin`: the margin the triangle (head frame) must keep.
+fn triangle_margin(q: Query, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
+    if q.slope > 0.0 {
+        return q.margin + q.slope * max(max(len3(a), len3(b)), len3(c));
+    }
+    return q.margin;
+}
+
+// The triangle in the head frame, the margin it must keep and its bounding
+// sphere's classification (1 outside, -1 inside, 0 undecided); the first
+// half of cpu.rs `tri_hits`.
 struct HeadTri {
     a: vec3<f32>,
     b: vec3<f32>,
     c: vec3<f32>,
+    margin: f32,
     cls: i32,
 }
 
@@ -248,7 +267,8 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
     let third = 1.0 / 3.0;
     let m = (a + b + c) * third;
     let r = max(max(len3(a - m), len3(b - m)), len3(c - m));
-    return HeadTri(a, b, c, classify(m, r, q.margin));
+    let margin = triangle_margin(q, a, b, c);
+    return HeadTri(a, b, c, margin, classify(m, r, margin));
 }
 
 // The exact half of cpu.rs `tri_hits` (`tri_hits_exact`), for an undecided

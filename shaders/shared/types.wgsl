@@ -30,8 +30,8 @@ struct Query {
     rows: array<vec4<f32>, 3>,
     cutoff: u32,
     margin: f32,
-    pad1: u32,
-    pad2: u32,
+    slope: f32,
+    pad: u32,
 }
 
 struct HeadParams {

@@ -86,8 +86,8 @@ pub struct PlanArgs {
     #[arg(long, default_value_t = 1)]
     subsample: usize,
     /// Initial spacing of the collision checks along each move: the
-    /// largest distance any point of the head moves between two (mm);
-    /// checks are refined where material is near.
+    /// distance the nozzle tip moves between two (mm); checks are refined
+    /// where material is near.
     #[arg(long, default_value_t = 0.3)]
     edge_step: f64,
     /// Skip the plots, the 3D scene and the HTML report (faster).

@@ -13,6 +13,9 @@
 //! when it lies in the unit square, else the four endpoint-to-segment
 //! distances with clamped parameters), and 0 when an edge strictly crosses
 //! the other triangle's plane inside it.
+//!
+//! A margin with a slope is each triangle's own: `margin + slope · ρ`,
+//! `ρ` its farthest corner's distance from the tip (in `f64`).
 
 use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::tri_tri::tri_tri_overlap;
@@ -66,15 +69,6 @@ impl<'a> BruteBackend<'a> {
         let hb = Aabb::from_points(&head.vertices);
         let tol = self.scene.tol;
         let pose = &q.pose;
-        let margin = q.margin as f64;
-        // Exact pruning only: a triangle whose box misses the head's box
-        // grown by the margin (and the tolerance) can neither cross, nor be
-        // inside, nor come within the margin.
-        let grow = q.margin + 2.0 * tol;
-        let grown = Aabb {
-            min: hb.min.map(|x| x - grow),
-            max: hb.max.map(|x| x + grow),
-        };
         self.scene
             .part_tris
             .iter()
@@ -83,6 +77,15 @@ impl<'a> BruteBackend<'a> {
                 let a = pose.to_head(t.v0);
                 let b = pose.to_head(t.v1);
                 let c = pose.to_head(t.v2);
+                let margin = self.triangle_margin(q, t);
+                // Exact pruning only: a triangle whose box misses the
+                // head's box grown by its margin (and the tolerance) can
+                // neither cross, nor be inside, nor come within the margin.
+                let grow = margin as f32 + 2.0 * tol;
+                let grown = Aabb {
+                    min: hb.min.map(|x| x - grow),
+                    max: hb.max.map(|x| x + grow),
+                };
                 let tb = Aabb::from_points(&[a, b, c]);
                 if !tb.overlaps(&grown) {
                     return false;
@@ -106,6 +109,50 @@ impl<'a> BruteBackend<'a> {
             .filter(|h| t.boxes_within(h, cap))
             .map(|h| tri_tri_distance64(&t.v, &h.v))
             .fold(cap, f64::min)
+    }
+
+    /// The margin the part triangle `t` must keep at `q` (f64): the
+    /// query's margin grown by its slope at `t`'s corner farthest from the
+    /// tip.
+    pub fn triangle_margin(&self, q: &Query, t: &crate::scene::GpuTriangle) -> f64 {
+        let far = [t.v0, t.v1, t.v2]
+            .map(|v| {
+                let d: D3 = std::array::from_fn(|k| v[k] as f64 - q.pose.tip[k] as f64);
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            })
+            .into_iter()
+            .fold(0.0, f64::max);
+        q.margin as f64 + q.slope as f64 * far
+    }
+
+    /// How far (f64) the nearest existing part triangle is from violating
+    /// its margin at `q`: the smallest `distance − margin` over triangles
+    /// (negative inside the margin; a triangle inside the head counts by
+    /// its distance to the surface), or `cap` when every triangle is more
+    /// than `cap` beyond its margin. Tests use it to judge whether a
+    /// disagreement between backends is a near-contact.
+    pub fn margin_slack(&self, q: &Query, cap: f64) -> f64 {
+        if q.slope == 0.0 {
+            return self.surface_distance(q, q.margin as f64 + cap) - q.margin as f64;
+        }
+        let hb = Aabb::from_points(&self.scene.head.mesh.vertices);
+        self.scene
+            .part_tris
+            .par_iter()
+            .filter(|t| t.stamp < q.cutoff)
+            .filter_map(|t| {
+                let margin = self.triangle_margin(q, t);
+                let grow = (margin + cap) as f32 + 2.0 * self.scene.tol;
+                let grown = Aabb {
+                    min: hb.min.map(|x| x - grow),
+                    max: hb.max.map(|x| x + grow),
+                };
+                let tb = Aabb::from_points(&[t.v0, t.v1, t.v2].map(|p| q.pose.to_head(p)));
+                tb.overlaps(&grown).then(|| {
+                    self.triangle_distance(&q.pose, t.v0, t.v1, t.v2, margin + cap) - margin
+                })
+            })
+            .reduce(|| cap, f64::min)
     }
 
     /// Distance (f64) between the head's surface at `q.pose` and the

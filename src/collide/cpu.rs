@@ -10,7 +10,10 @@
 //! Each node's bounding sphere is moved into the head frame and classified
 //! with the head's distance grid: wholly outside and farther than the
 //! query's safety margin (skip), wholly inside (a collision: the node holds
-//! a triangle that exists), or unknown (descend). Leaf triangles get the
+//! a triangle that exists), or unknown (descend). With a slope the margin
+//! grows with distance from the tip: a node is measured at its farthest
+//! point from the tip ([`sphere_margin`]), a triangle at its farthest
+//! corner ([`triangle_margin`]). Leaf triangles get the
 //! same classification, then the exact tests: Möller against the head
 //! triangles its box touches and, with a positive margin, the distance to
 //! the head triangles whose boxes lie within the margin (one walk); when
@@ -195,12 +198,13 @@ pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
         if node.min_stamp >= q.cutoff {
             continue;
         }
+        let c = to_head(q, node.center);
         let cls = classify(
             s.head,
             s.grid,
-            to_head(q, node.center),
+            c,
             node.radius,
-            q.margin,
+            sphere_margin(q, c, node.radius),
         );
         if cls > 0 {
             continue;
@@ -243,11 +247,35 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
     let r = length(sub(a, m))
         .max(length(sub(b, m)))
         .max(length(sub(c, m)));
-    let cls = classify(s.head, s.grid, m, r, q.margin);
+    let margin = triangle_margin(q, a, b, c);
+    let cls = classify(s.head, s.grid, m, r, margin);
     if cls != 0 {
         return cls < 0;
     }
-    tri_hits_exact(s, a, b, c, q.margin)
+    tri_hits_exact(s, a, b, c, margin)
+}
+
+/// The margin everything inside the sphere `(c, r)` (head frame) must at
+/// least keep: the query's margin grown by its slope at the sphere's
+/// farthest point from the tip (no triangle inside needs more).
+#[inline(always)]
+pub fn sphere_margin(q: &GpuQuery, c: V3, r: f32) -> f32 {
+    if q.slope > 0.0 {
+        q.margin + q.slope * (length(c) + r)
+    } else {
+        q.margin
+    }
+}
+
+/// The margin the triangle `(a, b, c)` (head frame) must keep: the query's
+/// margin grown by its slope at the corner farthest from the tip.
+#[inline(always)]
+pub fn triangle_margin(q: &GpuQuery, a: V3, b: V3, c: V3) -> f32 {
+    if q.slope > 0.0 {
+        q.margin + q.slope * length(a).max(length(b)).max(length(c))
+    } else {
+        q.margin
+    }
 }
 
 /// The exact tests for a triangle (head frame) the grid could not settle:

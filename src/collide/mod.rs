@@ -19,8 +19,8 @@ pub enum CollideError {
     /// A query's pose has a NaN or infinite component.
     #[error("query {0} has a non-finite pose")]
     NonFinite(usize),
-    /// A query's safety margin is negative or not finite.
-    #[error("query {0} has a negative or non-finite safety margin")]
+    /// A query's safety margin or its slope is negative or not finite.
+    #[error("query {0} has a negative or non-finite safety margin or slope")]
     BadMargin(usize),
     /// The chosen backend cannot run here.
     #[error("{0}")]
@@ -48,7 +48,7 @@ pub fn check_finite(queries: &[Query]) -> Result<(), CollideError> {
         if !finite {
             return Err(CollideError::NonFinite(i));
         }
-        if !(q.margin.is_finite() && q.margin >= 0.0) {
+        if !(q.margin.is_finite() && q.margin >= 0.0 && q.slope.is_finite() && q.slope >= 0.0) {
             return Err(CollideError::BadMargin(i));
         }
     }

@@ -20,6 +20,10 @@
 //!   its BVH cannot rule out), on the same whole groups and chunk
 //!   triangles, and the boxes used for culling are grown by the margin.
 //!   Containment is unchanged.
+//! - A margin with a slope (it grows with distance from the tip): a group
+//!   is first tested at the largest margin any of its triangles can need
+//!   (its box's farthest corner from the tip); only if something lies
+//!   that near are its triangles tested one by one, each at its own.
 //!
 //! Rayon parallelises over the batch.
 
@@ -52,10 +56,39 @@ struct Near {
     pose: Pose,
     /// The head's box (part frame).
     head_aabb: Aabb,
-    /// The head's box grown by the margin.
-    reach: Aabb,
+    /// The tip (part frame).
+    tip: Vector,
     cutoff: u32,
     margin: f32,
+    slope: f32,
+}
+
+impl Near {
+    /// The largest margin anything inside `aabb` can need.
+    fn margin_within(&self, aabb: &Aabb) -> f32 {
+        if self.slope > 0.0 {
+            let far = (aabb.mins - self.tip)
+                .abs()
+                .max((aabb.maxs - self.tip).abs());
+            self.margin + self.slope * far.length()
+        } else {
+            self.margin
+        }
+    }
+
+    /// The margin the triangle (part frame) must keep: grown by the slope
+    /// at its corner farthest from the tip.
+    fn margin_of(&self, tri: &parry3d::shape::Triangle) -> f32 {
+        if self.slope > 0.0 {
+            let far = [tri.a, tri.b, tri.c]
+                .map(|v| (v - self.tip).length())
+                .into_iter()
+                .fold(0.0f32, f32::max);
+            self.margin + self.slope * far
+        } else {
+            self.margin
+        }
+    }
 }
 
 /// The `parry` backend.
@@ -160,22 +193,21 @@ impl ParryBackend {
         let near = Near {
             pose,
             head_aabb,
-            // Everything within the margin of the head lies in its box
-            // grown by the margin.
-            reach: head_aabb.loosened(q.margin),
+            tip: vector(q.pose.tip),
             cutoff: q.cutoff,
             margin: q.margin,
+            slope: q.slope,
         };
         self.groups.iter().any(|g| self.group_hits(g, &near))
     }
 
     /// Does `shape` (part frame) cross the head, or, with a positive
-    /// margin, come within the margin of it? Parry's own answer: the
-    /// margin goes to its `closest_points` as `max_dist`.
-    fn crosses_or_near(&self, near: &Near, shape: &dyn Shape) -> bool {
+    /// `margin`, come within it? Parry's own answer: the margin goes to
+    /// its `closest_points` as `max_dist`.
+    fn crosses_or_near(&self, near: &Near, shape: &dyn Shape, margin: f32) -> bool {
         let identity = Pose::identity();
-        if near.margin > 0.0 {
-            closest_points(&near.pose, &self.head, &identity, shape, near.margin)
+        if margin > 0.0 {
+            closest_points(&near.pose, &self.head, &identity, shape, margin)
                 .map(|r| !matches!(r, ClosestPoints::Disjoint))
                 .unwrap_or(true)
         } else {
@@ -190,23 +222,34 @@ impl ParryBackend {
     }
 
     fn group_hits(&self, g: &Group, near: &Near) -> bool {
-        if g.min_stamp >= near.cutoff || !g.aabb.intersects(&near.reach) {
+        // Everything within its margin of the head lies in the head's box
+        // grown by the largest margin the group can need.
+        let margin = near.margin_within(&g.aabb);
+        let reach = near.head_aabb.loosened(margin);
+        if g.min_stamp >= near.cutoff || !g.aabb.intersects(&reach) {
             return false;
         }
         if g.max_stamp < near.cutoff {
-            return self.crosses_or_near(near, &g.mesh)
-                || g.representatives.iter().any(|r| self.contains(near, *r));
-        }
-        if !g.chunks.is_empty() {
+            if g.representatives.iter().any(|r| self.contains(near, *r)) {
+                return true;
+            }
+            if !self.crosses_or_near(near, &g.mesh, margin) {
+                return false;
+            }
+            if near.slope == 0.0 {
+                return true;
+            }
+        } else if !g.chunks.is_empty() {
             return g.chunks.iter().any(|c| self.group_hits(c, near));
         }
-        g.mesh.bvh().intersect_aabb(&near.reach).any(|id| {
+        let hit = g.mesh.bvh().intersect_aabb(&reach).any(|id| {
             if g.stamps[id as usize] >= near.cutoff {
                 return false;
             }
             let tri = g.mesh.triangle(id);
-            self.crosses_or_near(near, &tri) || self.contains(near, tri.a)
-        })
+            self.crosses_or_near(near, &tri, near.margin_of(&tri)) || self.contains(near, tri.a)
+        });
+        hit
     }
 }
 

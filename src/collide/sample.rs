@@ -27,6 +27,7 @@ pub fn tilted_queries(waypoints: &[Query], count: usize, tilted: usize) -> Vec<Q
                 pose: q.pose.tilted(tilt, azimuth),
                 cutoff: q.cutoff,
                 margin: q.margin,
+                slope: q.slope,
             });
         }
     }

@@ -73,8 +73,8 @@ pub struct PlanOptions {
     pub beta: f64,
     /// Variant generation.
     pub sampling: Sampling,
-    /// Initial spacing of the samples proving a move: the largest distance
-    /// any head point moves between two of them (mm).
+    /// Initial spacing of the samples proving a move: the distance the tip
+    /// moves between two of them (mm).
     pub edge_step: f64,
     /// Consecutive waypoints farther apart than this start a new section (mm).
     pub jump: f64,

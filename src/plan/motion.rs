@@ -6,9 +6,10 @@
 //! away from the straight bead and every point of the head sweeps a curve
 //! in the part frame. This file bounds both:
 //!
-//! - [`displacement_bound`]: no point of the head moves farther than this
-//!   over the whole move (and no farther than `bound · Δt` over any
-//!   fraction `Δt` of it);
+//! - [`sweep`]: a head point `r` mm from the tip moves no farther than
+//!   `tip + turn · r` over the whole move (and no farther than `Δt` times
+//!   that over any fraction `Δt` of it); [`displacement_bound`] is that
+//!   for the head's farthest point;
 //! - [`tip_deviation_bound`]: the tip never leaves the part-frame chord by
 //!   more than this; [`tip_subdivision`] inserts points until every piece
 //!   keeps it within the machine's `tip_tolerance`.
@@ -20,18 +21,24 @@
 //! `g'' = −M'' p − 2 M' Δp`, so with `ω = |ΔB| + |ΔC|` (radians per unit
 //! move) and `P` the largest `|p|`: `|g''| ≤ G = ω² P + 2 ω |Δp|`, hence
 //! `|tip − p| = |g| ≤ G / 8` and `|tip' − Δp| ≤ G / 2 + ω G / 8`. A head
-//! point `tip + R h` with `|h| ≤ reach` adds `ω · reach`.
+//! point `tip + R h` adds `ω · |h|`.
 //!
-//! [`Prover`] turns boolean queries into proofs about whole moves: if the
-//! head is at least `m + μ_a` clear at parameter `a` and `m + μ_b` at `b`,
-//! and no head point moves farther than `L` between them, then every pose
-//! in between keeps the margin `m` when `μ_a + μ_b ≥ L` (any point of the
-//! swept path is within `μ_a` of where it was at `a` or within `μ_b` of
-//! where it is at `b`; the same holds for material points seen from the
-//! head, so containment cannot appear in between either). Samples are
-//! queried with a margin grown by half their spacing; where one fails, its
-//! intervals are halved, down to `min_step`. A move is declared colliding
-//! only when it cannot be proven at that resolution.
+//! [`Prover`] turns boolean queries into proofs about whole moves. A pose
+//! of a move is *free at level `λ`* when no head point `h` comes within
+//! `m + λ (tip + turn |h|)` of material: then no head point reaches the
+//! margin `m` while the move advances by a fraction `λ` either way (it
+//! moves no farther than that in the time). So an interval `[a, b]` of
+//! the move is proven when `λ_a + λ_b ≥ b − a` (every pose in between is
+//! within reach of one end's clearance; the same holds for material
+//! points seen from the head, so containment cannot appear in between
+//! either). A level is asked as one query whose margin grows with
+//! distance from the tip ([`crate::scene::Query::slope`], see
+//! [`level_query`]): material near the tip needs little more than the
+//! tip's own travel, however far the rest of the head swings. Samples
+//! start `step` mm of tip travel apart and are asked half their
+//! intervals each; where one fails, its intervals are halved, down to
+//! `min_step`. A move is declared colliding only when it cannot be
+//! proven at that resolution.
 
 use crate::collide::{Backend, CollideError};
 use crate::geometry::Pose;
@@ -63,18 +70,44 @@ fn bow(m: &Machine, a: &Axes, b: &Axes) -> (f64, f64, f64) {
     (w * w * lever + 2.0 * w * dp, w, dp)
 }
 
-/// Largest distance any head point within `reach` of the tip travels over
-/// the move `a → b` as the machine interpolates it (mm); a fraction `Δt`
-/// of the move moves no point farther than `Δt` times this. Under
-/// tool-centre-point control the tip moves straight, so the bound is the
-/// tip's travel plus the rotation's sweep of the head: `|Δp| + ω · reach`.
-pub fn displacement_bound(m: &Machine, a: &Axes, b: &Axes, reach: f64) -> f64 {
+/// How far head points travel over a move, by their distance from the tip:
+/// a point `r` mm from the tip (head frame) moves no farther than
+/// `tip + turn · r` over the whole move, and a fraction `Δt` of the move
+/// moves it no farther than `Δt` times that.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sweep {
+    /// The tip's part (mm): its travel, its bow, the machine's lever arms.
+    pub tip: f64,
+    /// The rotation's part (mm per mm from the tip): `ω = |ΔB| + |ΔC|`.
+    pub turn: f64,
+}
+
+impl Sweep {
+    /// The farthest a point within `reach` of the tip travels (mm).
+    pub fn within(&self, reach: f64) -> f64 {
+        self.tip + self.turn * reach
+    }
+}
+
+/// [`Sweep`] of the move `a → b` as the machine interpolates it. Under
+/// tool-centre-point control the tip moves straight: `|Δp| + ω r`.
+pub fn sweep(m: &Machine, a: &Axes, b: &Axes) -> Sweep {
     let (g, w, dp) = bow(m, a, b);
     if m.post.interpolation() == Interpolation::TipLinear {
-        return dp + w * reach;
+        return Sweep { tip: dp, turn: w };
     }
     let lever = m.d.abs() + m.h.abs() + m.r.abs();
-    dp + 0.5 * g + w * g / 8.0 + w * (reach + lever)
+    Sweep {
+        tip: dp + 0.5 * g + w * g / 8.0 + w * lever,
+        turn: w,
+    }
+}
+
+/// Largest distance any head point within `reach` of the tip travels over
+/// the move `a → b` as the machine interpolates it (mm); a fraction `Δt`
+/// of the move moves no point farther than `Δt` times this.
+pub fn displacement_bound(m: &Machine, a: &Axes, b: &Axes, reach: f64) -> f64 {
+    sweep(m, a, b).within(reach)
 }
 
 /// Largest distance of the tip from the part-frame chord between the two
@@ -210,9 +243,9 @@ pub struct Prover<'a> {
     reach: f64,
     /// The safety margin every pose and move must keep (mm).
     pub margin: f64,
-    /// Initial spacing of the samples of a move: the largest distance any
-    /// head point moves between two of them (mm); long moves start with 64
-    /// samples.
+    /// Initial spacing of the samples of a move: the largest distance the
+    /// tip moves between two of them (mm); long moves start with at most
+    /// 64 samples.
     pub step: f64,
     /// Finest spacing before a move is declared colliding (mm). Poses are
     /// checked with `margin + min_step` so that the moves out of them can
@@ -234,8 +267,9 @@ pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
 /// keep a batch backend busy, small enough for a progress bar to move.
 const TICK_BATCH: usize = 1 << 16;
 
-/// Per-sample state of a move being proven: parameter, largest margin it
-/// is known free at, smallest margin it is known to collide at.
+/// Per-sample state of a move being proven: parameter, largest level it
+/// is known free at, smallest level it is known to fail at (levels:
+/// [`level_query`]).
 #[derive(Clone, Copy)]
 struct Sample {
     t: f64,
@@ -306,6 +340,7 @@ impl<'a> Prover<'a> {
             pose,
             cutoff,
             margin: margin as f32,
+            slope: 0.0,
         }
     }
 
@@ -441,38 +476,43 @@ impl<'a> Prover<'a> {
     /// The adaptive proof (module comment) for moves not in the cache.
     fn prove(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
         let m = self.margin;
-        let bounds: Vec<f64> = moves
+        let sweeps: Vec<Sweep> = moves
             .par_iter()
-            .map(|mv| displacement_bound(self.machine, &mv.from, &mv.to, self.reach))
+            .map(|mv| sweep(self.machine, &mv.from, &mv.to))
             .collect();
-        // Initial samples: intervals no longer than `step`. The ends start
-        // with what is known of them as poses (a pose free with more
-        // material present is free with less).
+        let bounds: Vec<f64> = sweeps.iter().map(|s| s.within(self.reach)).collect();
+        // Initial samples: intervals over which the tip moves no farther
+        // than `step` (material near the tip is proven at that first
+        // resolution; material farther out, which a turn sweeps faster,
+        // splits the intervals it comes near). The ends start with what is
+        // known of them as poses (a pose free with more material present
+        // is free with less): a plain margin `M` certifies level
+        // `(M − m) / bound`.
         let mut samples: Vec<Vec<Sample>> = {
             let known = self.known.lock().expect("prover cache");
-            let at = |a: &Axes, cutoff: u32| {
+            let at = |a: &Axes, cutoff: u32, d: f64| {
                 let k = |c: u32| {
                     known
                         .get(&pose_key(a, c))
                         .copied()
                         .unwrap_or(f64::NEG_INFINITY)
                 };
-                k(cutoff).max(k(cutoff + 1))
+                plain_level(k(cutoff).max(k(cutoff + 1)), m, d)
             };
-            bounds
+            sweeps
                 .iter()
+                .zip(&bounds)
                 .zip(moves)
-                .map(|(&d, mv)| {
+                .map(|((sw, &d), mv)| {
                     // Long moves (travels) start coarser: at most 64
-                    // samples, each checked with a margin grown by half
-                    // their spacing, refined only where material is near.
-                    let n = ((d / self.step).ceil() as usize).clamp(1, 64);
+                    // samples, refined only where material is near.
+                    let n = ((sw.tip / self.step).ceil() as usize).clamp(1, 64);
                     (0..=n)
                         .map(|k| Sample {
                             t: k as f64 / n as f64,
                             free: match k {
-                                0 => at(&mv.from, mv.cutoff),
-                                _ if k == n => at(&mv.to, mv.cutoff),
+                                0 => at(&mv.from, mv.cutoff, d),
+                                _ if k == n => at(&mv.to, mv.cutoff, d),
                                 _ => f64::NEG_INFINITY,
                             },
                             hit: f64::INFINITY,
@@ -483,8 +523,8 @@ impl<'a> Prover<'a> {
         };
         let mut verdict: Vec<Option<bool>> = vec![None; moves.len()];
         loop {
-            // Per undecided move: the samples to query and at what margin,
-            // splitting intervals whose ends failed at their margin.
+            // Per undecided move: the samples to query and at what level,
+            // splitting intervals that cannot be proven as they stand.
             let requests: Vec<Vec<(usize, f64)>> = samples
                 .par_iter_mut()
                 .zip(verdict.par_iter_mut())
@@ -493,7 +533,7 @@ impl<'a> Prover<'a> {
                     if v.is_some() {
                         return Vec::new();
                     }
-                    let (req, decided) = plan_requests(s, d, m, self.min_step);
+                    let (req, decided) = plan_requests(s, d, self.min_step);
                     *v = decided;
                     req
                 })
@@ -501,26 +541,32 @@ impl<'a> Prover<'a> {
             let flat: Vec<(usize, usize, f64)> = requests
                 .iter()
                 .enumerate()
-                .flat_map(|(i, r)| r.iter().map(move |&(k, mu)| (i, k, mu)))
+                .flat_map(|(i, r)| r.iter().map(move |&(k, level)| (i, k, level)))
                 .collect();
             if flat.is_empty() {
                 break;
             }
             let queries: Vec<Query> = flat
                 .par_iter()
-                .map(|&(i, k, mu)| {
+                .map(|&(i, k, level)| {
                     let mv = &moves[i];
                     let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
-                    self.query_pose(pose, mv.cutoff, mu)
+                    let (margin, slope) = level_query(m, &sweeps[i], self.reach, level);
+                    Query {
+                        pose,
+                        cutoff: mv.cutoff,
+                        margin: margin as f32,
+                        slope: slope as f32,
+                    }
                 })
                 .collect();
             let hits = self.evaluate(&queries)?;
-            for (&(i, k, mu), hit) in flat.iter().zip(hits) {
+            for (&(i, k, level), hit) in flat.iter().zip(hits) {
                 let s = &mut samples[i][k];
                 if hit {
-                    s.hit = s.hit.min(mu);
+                    s.hit = s.hit.min(level);
                 } else {
-                    s.free = s.free.max(mu);
+                    s.free = s.free.max(level);
                 }
             }
         }
@@ -528,30 +574,71 @@ impl<'a> Prover<'a> {
     }
 }
 
-/// One round of the proof of one move (displacement bound `d`, margin
-/// `m`): split every interval that cannot be proven at its resolution (an
-/// end already failed at the margin its length needs), then list the
-/// `(sample, margin)` queries the unproven intervals still need. Returns
-/// the decision instead once the move is proven free (`Some(false)`) or
-/// cannot be (`Some(true)`: an interval shorter than `2 · min_step` with a
-/// failing end).
-fn plan_requests(
-    s: &mut Vec<Sample>,
-    d: f64,
-    m: f64,
-    min_step: f64,
-) -> (Vec<(usize, f64)>, Option<bool>) {
-    // (The tolerance absorbs the rounding of `m + len / 2 − m`.)
-    let proven =
-        |a: &Sample, b: &Sample| (a.free - m) + (b.free - m) >= d * (b.t - a.t) * (1.0 - 1e-9);
-    let want = |a: &Sample, b: &Sample| m + 0.5 * d * (b.t - a.t);
+/// The level (fraction of its move, see [`level_query`]) a pose known free
+/// at the plain margin `margin` certifies, for a move whose farthest
+/// moving head point travels `bound` (`m` the safety margin).
+fn plain_level(margin: f64, m: f64, bound: f64) -> f64 {
+    if margin < m {
+        f64::NEG_INFINITY
+    } else if bound > 0.0 {
+        (margin - m) / bound
+    } else {
+        f64::INFINITY
+    }
+}
+
+/// The query `(margin, slope)` that certifies a pose of a move with sweep
+/// `s` at level `λ`: no head point `h` comes within
+/// `m + λ (s.tip + s.turn |h|)` of material, so none reaches the margin
+/// `m` while the move advances by a fraction `λ` either way. Asking each
+/// material point `q` (head frame) to keep `M₀ + k |q|` with
+/// `M₀ = (m + λ tip) / (1 − λ turn)`, `k = λ turn / (1 − λ turn)` does it:
+/// the head point `h` nearest to `q` has `|h| ≤ |q| + |q − h|`. Material
+/// near the tip then needs little more than the tip's own travel, however
+/// far the rest of the head swings. Large turns (`λ turn ≥ ½`) ask the
+/// plain margin `m + λ · s.within(reach)` instead.
+fn level_query(m: f64, s: &Sweep, reach: f64, level: f64) -> (f64, f64) {
+    let k = level * s.turn;
+    if k < 0.5 {
+        ((m + level * s.tip) / (1.0 - k), k / (1.0 - k))
+    } else {
+        (m + level * s.within(reach), 0.0)
+    }
+}
+
+/// One round of the proof of one move (its farthest moving head point
+/// travels `d`): the `(sample, level)` queries its unproven intervals need,
+/// splitting each interval that no query can settle any more (an end
+/// already failed at the level asked of it). An interval `[a, b]` is
+/// proven when `level(a) + level(b) ≥ b − a`; its ends are asked half
+/// each, or, when one end is already known free at a quarter of the span
+/// or more, the other asked the rest. Returns the decision instead once
+/// the move is proven free (`Some(false)`) or cannot be (`Some(true)`: a
+/// blocked interval whose half moves the head less than `min_step`).
+fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64)>, Option<bool>) {
+    // (The tolerance absorbs rounding.)
+    let proven = |a: &Sample, b: &Sample| a.free + b.free >= (b.t - a.t) * (1.0 - 1e-9);
+    // The levels wanted of the ends of an unproven interval.
+    let want = |a: &Sample, b: &Sample| {
+        let span = b.t - a.t;
+        if a.free >= 0.25 * span && a.free >= b.free {
+            (a.free, span - a.free)
+        } else if b.free >= 0.25 * span {
+            (span - b.free, b.free)
+        } else {
+            (0.5 * span, 0.5 * span)
+        }
+    };
+    let blocked = |a: &Sample, b: &Sample| {
+        let (wa, wb) = want(a, b);
+        (a.free < wa && a.hit <= wa) || (b.free < wb && b.hit <= wb)
+    };
     // Splits.
     let mut k = 0;
     while k + 1 < s.len() {
         let (a, b) = (s[k], s[k + 1]);
-        let w = want(&a, &b);
-        if !proven(&a, &b) && (a.hit <= w || b.hit <= w) {
-            if w - m < min_step {
+        if !proven(&a, &b) && blocked(&a, &b) {
+            if 0.5 * d * (b.t - a.t) < min_step {
                 return (Vec::new(), Some(true));
             }
             s.insert(
@@ -574,8 +661,8 @@ fn plan_requests(
         if proven(&a, &b) {
             continue;
         }
-        let w = want(&a, &b);
-        for idx in [k, k + 1] {
+        let (wa, wb) = want(&a, &b);
+        for (idx, w) in [(k, wa), (k + 1, wb)] {
             if s[idx].free < w && s[idx].hit > w {
                 match need.last_mut() {
                     Some(last) if last.0 == idx => last.1 = last.1.max(w),
@@ -601,7 +688,9 @@ mod tests {
         m.axes_at(p, (tilt_deg.to_radians(), c_deg.to_radians()))
     }
 
-    /// The bounds hold for densely sampled joint-linear moves.
+    /// The bounds hold for densely sampled joint-linear moves: each head
+    /// point moves no farther than its own sweep (`tip + turn · |h|`), nor
+    /// than the displacement bound at the head's reach.
     #[test]
     fn bounds_cover_sampled_motion() {
         let m = Machine::default();
@@ -623,20 +712,24 @@ mod tests {
         ];
         for (a, b) in cases {
             let d = displacement_bound(&m, &a, &b, reach);
+            let sw = sweep(&m, &a, &b);
             let dev = tip_deviation_bound(&m, &a, &b);
             let (pa, pb) = (m.tip(&a), m.tip(&b));
             let n = 2000;
             let mut worst_dev: f64 = 0.0;
             for h in head_pts {
+                let own = sw.within(norm(h));
+                assert!(own <= d);
                 let pt = |t: f64| m.pose(&a.lerp(&b, t)).to_part(h.map(|x| x as f32));
                 for k in 0..n {
                     let (t0, t1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
                     let (x0, x1) = (pt(t0), pt(t1));
                     let step = dist(x0.map(|v| v as f64), x1.map(|v| v as f64));
                     assert!(
-                        step <= d * (t1 - t0) * 1.001 + 1e-4,
-                        "{step} > {}",
-                        d * (t1 - t0)
+                        step <= own * (t1 - t0) * 1.001 + 1e-4,
+                        "{step} > {} for a point {} mm from the tip",
+                        own * (t1 - t0),
+                        norm(h)
                     );
                 }
             }
@@ -650,6 +743,35 @@ mod tests {
                 worst_dev <= dev * 1.0001 + 1e-9,
                 "tip deviation {worst_dev} > bound {dev}"
             );
+        }
+    }
+
+    /// A pose asked at level `λ` keeps every head point `h` at least
+    /// `m + λ (tip + turn |h|)` from material: with the material point `q`
+    /// at exactly the asked `margin + slope |q|` from the head, every head
+    /// point as far from the tip as it can be (`|h| ≤ |q| + |q − h|`).
+    #[test]
+    fn level_queries_keep_each_head_point_its_own_sweep() {
+        let m = 0.05;
+        let reach = 36.0;
+        for (tip, turn) in [(0.9, 0.01), (0.3, 0.2), (2.0, 0.04), (0.0, 1.5), (1.0, 3.0)] {
+            let s = Sweep { tip, turn };
+            for level in [0.01, 0.1, 0.25, 0.5, 1.0] {
+                let (margin, slope) = level_query(m, &s, reach, level);
+                for q in [0.0, 0.5, 3.0, 10.0, 30.0, 36.0] {
+                    let gap = margin + slope * q;
+                    // The farthest head point at that distance from q.
+                    let h: f64 = q + gap;
+                    let need = m + level * s.within(h.min(reach));
+                    assert!(
+                        gap >= need * (1.0 - 1e-12),
+                        "sweep {s:?}, level {level}, |q| {q}: {gap} < {need}"
+                    );
+                }
+                // Never asks more of the tip's neighbourhood than one margin
+                // for the whole head would.
+                assert!(margin <= m + level * s.within(reach) + 1e-12 || slope == 0.0);
+            }
         }
     }
 

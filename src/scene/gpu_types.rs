@@ -113,8 +113,11 @@ pub struct GpuQuery {
     pub cutoff: u32,
     /// Safety margin (mm): closer than this counts as a collision.
     pub margin: f32,
+    /// Growth of the margin with distance from the tip (mm per mm):
+    /// [`crate::scene::Query::slope`].
+    pub slope: f32,
     /// Padding to 16-byte multiples.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 /// The head's scalar parameters, 176 bytes.

@@ -99,6 +99,13 @@ pub struct Query {
     /// Safety margin (mm): the query collides when any existing triangle
     /// comes closer than this to the (clearance-lifted) head; 0 = touch.
     pub margin: f32,
+    /// Growth of the margin with distance from the nozzle tip (mm per mm,
+    /// ≥ 0): a triangle must keep `margin + slope · ρ` from the head, `ρ`
+    /// its farthest corner's distance from the tip. Motion proofs use it:
+    /// a head point `r` from the tip moves about `δ + ω r` in a move, so
+    /// the clearance a pose needs grows with `r` (`plan::motion`). 0 for
+    /// a plain safety margin.
+    pub slope: f32,
 }
 
 impl Query {
@@ -114,7 +121,8 @@ impl Query {
             ],
             cutoff: self.cutoff,
             margin: self.margin,
-            _pad: [0; 2],
+            slope: self.slope,
+            _pad: 0,
         }
     }
 }
@@ -211,6 +219,7 @@ impl Scene {
                 pose: Pose::from_axis(w.pos, w.dir),
                 cutoff: g as u32 + 1,
                 margin: 0.0,
+                slope: 0.0,
             });
             waypoint_layers.push(k as u32);
         }

@@ -126,16 +126,18 @@ pub fn random_queries(rng: &mut ChaCha8Rng, scene: &Scene, count: usize) -> Vec<
                 pose,
                 cutoff,
                 margin: 0.0,
+                slope: 0.0,
             }
         })
         .collect()
 }
 
-/// Distance between the head's surface at `q` and the nearest existing
-/// part triangle, by brute force in f64 (`BruteBackend::surface_distance`),
-/// capped at `q.margin + 0.01` mm — how "near" a contact is.
-pub fn surface_distance(scene: &Scene, q: &Query) -> f64 {
-    BruteBackend::new(scene).surface_distance(q, q.margin as f64 + 0.01)
+/// How far the nearest existing part triangle is from its margin at `q`
+/// (distance − margin, the margin grown by the query's slope), by brute
+/// force in f64 (`BruteBackend::margin_slack`), capped at 0.01 mm — how
+/// "near" a contact is.
+pub fn margin_slack(scene: &Scene, q: &Query) -> f64 {
+    BruteBackend::new(scene).margin_slack(q, 0.01)
 }
 
 /// The same queries with safety margin `margin` (mm).
@@ -146,16 +148,32 @@ pub fn with_margin(queries: &[Query], margin: f32) -> Vec<Query> {
 /// The safety margins the differential tests sweep (mm).
 pub const MARGINS: [f32; 4] = [0.0, 0.05, 0.3, 1.0];
 
+/// Margins with a slope (mm, mm per mm) the differential tests sweep: the
+/// planner's kind (a margin growing away from the tip), and a slope alone.
+pub const SLOPED: [(f32, f32); 2] = [(0.05, 0.02), (0.0, 0.04)];
+
+/// The same queries with margin `margin` growing by `slope` per mm from
+/// the tip.
+pub fn with_slope(queries: &[Query], margin: f32, slope: f32) -> Vec<Query> {
+    queries
+        .iter()
+        .map(|q| Query {
+            margin,
+            slope,
+            ..*q
+        })
+        .collect()
+}
+
 /// A pose with the head axis `axis` at `tip`.
 pub fn pose(tip: V3, axis: V3) -> Pose {
     Pose::from_axis(tip, axis)
 }
 
 /// Compare `got` with `truth`: every disagreement must be a near-contact —
-/// the distance `d` between the head's surface and the nearest existing
-/// triangle within 1e-3 mm of the query's margin (`|d − margin| < 1e-3`;
-/// for margin 0, surfaces closer than 1e-3 mm) — and is listed. Returns
-/// their count.
+/// the nearest existing triangle within 1e-3 mm of its margin
+/// ([`margin_slack`]; for margin 0, surfaces closer than 1e-3 mm) — and is
+/// listed. Returns their count.
 pub fn near_contacts_only(
     scene: &Scene,
     queries: &[Query],
@@ -166,11 +184,10 @@ pub fn near_contacts_only(
     let mut near = Vec::new();
     for (i, (t, g)) in truth.iter().zip(got).enumerate() {
         if t != g {
-            let d = surface_distance(scene, &queries[i]);
-            let m = queries[i].margin as f64;
+            let d = margin_slack(scene, &queries[i]);
             assert!(
-                (d - m).abs() < 1e-3,
-                "{what}: query {i} ({:?}): {g} vs {t}, surfaces {d} mm apart, margin {m} mm",
+                d.abs() < 1e-3,
+                "{what}: query {i} ({:?}): {g} vs {t}, {d} mm beyond the margin",
                 queries[i]
             );
             near.push((i, d));
@@ -279,6 +296,7 @@ pub fn margin_cases() -> Vec<MarginCase> {
         pose: pose(tip, [0.0, 0.0, 1.0]),
         cutoff: 2,
         margin,
+        slope: 0.0,
     };
     let mut cases = Vec::new();
 

@@ -349,7 +349,7 @@ impl GpuBackend {
                 timestamp_writes: None,
             });
             pass.set_bind_group(0, &set.bind_group, &[]);
-            if batch.iter().any(|q| q.margin > 0.0) {
+            if batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0) {
                 pass.set_pipeline(&self.exact);
             } else {
                 pass.set_pipeline(&self.exact_touch);
