@@ -1095,14 +1095,17 @@ impl<'a> State<'a> {
         }
         stats.finish(&mut out);
         out.height_clamped_pct = 100.0 * clamped as f64 / segments.max(1) as f64;
-        // Tip deviation (sampled as a controller interpolates) and travel
-        // rotation of the written moves.
-        let mut dev: f64 = 0.0;
+        // Tip deviation (sampled as a controller interpolates: 63 poses a
+        // move, so in parallel) and travel rotation of the written moves.
+        let dev = moves
+            .par_iter()
+            .filter(|(_, mv)| mv.kind.extrudes())
+            .map(|(from, mv)| metrics::tip_deviation(m, from, &mv.to))
+            .reduce(|| 0.0, f64::max);
         let mut travel_c: f64 = 0.0;
         let mut run_c = 0.0;
         for (from, mv) in &moves {
             if mv.kind.extrudes() {
-                dev = dev.max(metrics::tip_deviation(m, from, &mv.to));
                 travel_c = travel_c.max(run_c);
                 run_c = 0.0;
             } else {
