@@ -38,12 +38,8 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
     let mut params = BvhBuildParams::medium_build();
     params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
     let bvh = build_bvh2_from_tris(&obv, params, &mut Duration::default());
+    drop(obv);
 
-    let triangles: Vec<GpuTriangle> = bvh
-        .primitive_indices
-        .iter()
-        .map(|&i| tris[i as usize])
-        .collect();
     let mut nodes = Vec::with_capacity(bvh.nodes.len());
     for n in &bvh.nodes {
         let packed = if n.prim_count > 0 {
@@ -64,7 +60,14 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
             min_stamp: u32::MAX,
         });
     }
-    let (mut nodes, triangles) = depth_first(&nodes, &triangles);
+    // Leaf ranges index `primitive_indices`; laid out depth first they
+    // index the triangles, gathered once in that order.
+    let (mut nodes, order) = depth_first(&nodes);
+    let triangles: Vec<GpuTriangle> = order
+        .iter()
+        .map(|&k| tris[bvh.primitive_indices[k as usize] as usize])
+        .collect();
+    drop(bvh);
     let packed: Vec<u32> = nodes.iter().map(|n| n.packed).collect();
     for (n, m) in nodes.iter_mut().zip(min_stamps(&packed, &triangles)) {
         n.min_stamp = m;
@@ -90,16 +93,17 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
     Ok(StampedBvh { nodes, triangles })
 }
 
-/// The same tree laid out depth first: each pair of children right after
-/// the pair that holds their parent's left sibling's subtree, so a walk
-/// down the tree reads memory forward, and the triangles in the order the
-/// walk meets their leaves. PLOC and reinsertion leave the nodes in build
-/// order, where a parent and its children can lie megabytes apart; a
-/// query's few hundred node visits were cache misses. The tree (and so
-/// every traversal's sequence of nodes) is unchanged.
-fn depth_first(nodes: &[GpuNode], tris: &[GpuTriangle]) -> (Vec<GpuNode>, Vec<GpuTriangle>) {
+/// The same tree laid out depth first: each pair of children stored after
+/// the subtree of the pair before it, so a walk down the tree reads memory
+/// forward, and leaves renumbered in the order the walk meets them.
+/// Returns the nodes and, for each new leaf slot, the old one (the caller
+/// gathers the triangles in that order). PLOC and reinsertion leave the
+/// nodes in build order, where a parent and its children can lie
+/// megabytes apart; a query's few hundred node visits were cache misses.
+/// The tree (and so every traversal's sequence of nodes) is unchanged.
+fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>) {
     let mut out = vec![GpuNode::default(); nodes.len()];
-    let mut out_tris = Vec::with_capacity(tris.len());
+    let mut order = Vec::new();
     out[0] = nodes[0];
     let mut next = 1usize;
     // (old index, new index), left children popped first.
@@ -107,8 +111,8 @@ fn depth_first(nodes: &[GpuNode], tris: &[GpuTriangle]) -> (Vec<GpuNode>, Vec<Gp
     while let Some((old, new)) = stack.pop() {
         match nodes[old].leaf_range() {
             Some((first, count)) => {
-                let start = out_tris.len() as u32;
-                out_tris.extend_from_slice(&tris[first as usize..(first + count) as usize]);
+                let start = order.len() as u32;
+                order.extend(first..first + count);
                 out[new].packed = GpuNode::pack_leaf(start, count);
             }
             None => {
@@ -122,7 +126,7 @@ fn depth_first(nodes: &[GpuNode], tris: &[GpuTriangle]) -> (Vec<GpuNode>, Vec<Gp
         }
     }
     out.truncate(next);
-    (out, out_tris)
+    (out, order)
 }
 
 /// Every node's smallest stamp below it, for nodes given by their

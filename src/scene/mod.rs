@@ -209,6 +209,7 @@ impl Scene {
             }
         }
         let part = bvh::build(&soup, 4)?;
+        drop(soup);
         let part_nodes = bvh::sphere_nodes(&part);
         let part_tris = part.triangles;
 
