@@ -230,15 +230,14 @@ impl ParryBackend {
             return false;
         }
         if g.max_stamp < near.cutoff {
-            if g.representatives.iter().any(|r| self.contains(near, *r)) {
-                return true;
-            }
             if !self.crosses_or_near(near, &g.mesh, margin) {
-                return false;
+                return g.representatives.iter().any(|r| self.contains(near, *r));
             }
             if near.slope == 0.0 {
                 return true;
             }
+            // Something lies within the largest margin: each triangle
+            // against its own (containment with it).
         } else if !g.chunks.is_empty() {
             return g.chunks.iter().any(|c| self.group_hits(c, near));
         }
