@@ -52,6 +52,8 @@ pub struct BruteBackend<'a> {
     scene: &'a Scene,
     /// Head triangles in `f64` (head frame).
     head64: Vec<Tri64>,
+    /// The head's box (head frame).
+    head_box: Aabb,
 }
 
 impl<'a> BruteBackend<'a> {
@@ -61,12 +63,15 @@ impl<'a> BruteBackend<'a> {
         let head64 = (0..head.triangles.len())
             .map(|i| Tri64::new(head.corners(i).map(to64)))
             .collect();
-        BruteBackend { scene, head64 }
+        BruteBackend {
+            scene,
+            head64,
+            head_box: Aabb::from_points(&head.vertices),
+        }
     }
 
     fn hits(&self, q: &Query) -> bool {
         let head = &self.scene.head.mesh;
-        let hb = Aabb::from_points(&head.vertices);
         let tol = self.scene.tol;
         let pose = &q.pose;
         self.scene
@@ -81,13 +86,8 @@ impl<'a> BruteBackend<'a> {
                 // Exact pruning only: a triangle whose box misses the
                 // head's box grown by its margin (and the tolerance) can
                 // neither cross, nor be inside, nor come within the margin.
-                let grow = margin as f32 + 2.0 * tol;
-                let grown = Aabb {
-                    min: hb.min.map(|x| x - grow),
-                    max: hb.max.map(|x| x + grow),
-                };
                 let tb = Aabb::from_points(&[a, b, c]);
-                if !tb.overlaps(&grown) {
+                if !tb.overlaps(&self.head_box_grown(margin)) {
                     return false;
                 }
                 let crossing_or_inside = (0..head.triangles.len()).any(|i| {
@@ -111,6 +111,17 @@ impl<'a> BruteBackend<'a> {
             .fold(cap, f64::min)
     }
 
+    /// The head's box (head frame) grown by `by` and the contact
+    /// tolerance: a part triangle whose box misses it can neither cross,
+    /// nor be inside, nor come within `by` of the head.
+    fn head_box_grown(&self, by: f64) -> Aabb {
+        let grow = by as f32 + 2.0 * self.scene.tol;
+        Aabb {
+            min: self.head_box.min.map(|x| x - grow),
+            max: self.head_box.max.map(|x| x + grow),
+        }
+    }
+
     /// The margin the part triangle `t` must keep at `q` (f64): the
     /// query's margin grown by its slope at `t`'s corner farthest from the
     /// tip.
@@ -132,23 +143,14 @@ impl<'a> BruteBackend<'a> {
     /// than `cap` beyond its margin. Tests use it to judge whether a
     /// disagreement between backends is a near-contact.
     pub fn margin_slack(&self, q: &Query, cap: f64) -> f64 {
-        if q.slope == 0.0 {
-            return self.surface_distance(q, q.margin as f64 + cap) - q.margin as f64;
-        }
-        let hb = Aabb::from_points(&self.scene.head.mesh.vertices);
         self.scene
             .part_tris
             .par_iter()
             .filter(|t| t.stamp < q.cutoff)
             .filter_map(|t| {
                 let margin = self.triangle_margin(q, t);
-                let grow = (margin + cap) as f32 + 2.0 * self.scene.tol;
-                let grown = Aabb {
-                    min: hb.min.map(|x| x - grow),
-                    max: hb.max.map(|x| x + grow),
-                };
                 let tb = Aabb::from_points(&[t.v0, t.v1, t.v2].map(|p| q.pose.to_head(p)));
-                tb.overlaps(&grown).then(|| {
+                tb.overlaps(&self.head_box_grown(margin + cap)).then(|| {
                     self.triangle_distance(&q.pose, t.v0, t.v1, t.v2, margin + cap) - margin
                 })
             })
@@ -161,12 +163,7 @@ impl<'a> BruteBackend<'a> {
     /// their distance to its surface. Tests use it to judge whether a
     /// disagreement between backends is a near-contact.
     pub fn surface_distance(&self, q: &Query, cap: f64) -> f64 {
-        let hb = Aabb::from_points(&self.scene.head.mesh.vertices);
-        let grow = cap as f32 + 2.0 * self.scene.tol;
-        let grown = Aabb {
-            min: hb.min.map(|x| x - grow),
-            max: hb.max.map(|x| x + grow),
-        };
+        let grown = self.head_box_grown(cap);
         self.scene
             .part_tris
             .par_iter()

@@ -553,10 +553,8 @@ impl<'a> Prover<'a> {
                     let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
                     let (margin, slope) = level_query(m, &sweeps[i], self.reach, level);
                     Query {
-                        pose,
-                        cutoff: mv.cutoff,
-                        margin: margin as f32,
                         slope: slope as f32,
+                        ..self.query_pose(pose, mv.cutoff, margin)
                     }
                 })
                 .collect();

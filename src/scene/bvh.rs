@@ -131,35 +131,25 @@ fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>) {
 
 /// Every node's smallest stamp below it, for nodes given by their
 /// `packed` words ([`GpuNode`] layout: child index or leaf range) over
-/// `tris`: a post-order sweep (explicit stack: obvhs' reinsertion may
-/// place a child before its parent).
+/// `tris`: one sweep from the last node back, since the depth-first layout
+/// ([`depth_first`]) stores every child after its parent.
 fn min_stamps(packed: &[u32], tris: &[GpuTriangle]) -> Vec<u32> {
-    let leaf = |i: usize| {
-        GpuNode {
+    let mut out = vec![u32::MAX; packed.len()];
+    for i in (0..packed.len()).rev() {
+        let node = GpuNode {
             packed: packed[i],
             ..GpuNode::default()
-        }
-        .leaf_range()
-    };
-    let mut out = vec![u32::MAX; packed.len()];
-    let mut stack = vec![(0usize, false)];
-    while let Some((i, children_done)) = stack.pop() {
-        match leaf(i) {
-            Some((first, count)) => {
-                out[i] = (first..first + count)
-                    .map(|t| tris[t as usize].stamp)
-                    .min()
-                    .unwrap_or(u32::MAX);
-            }
+        };
+        out[i] = match node.leaf_range() {
+            Some((first, count)) => (first..first + count)
+                .map(|t| tris[t as usize].stamp)
+                .min()
+                .unwrap_or(u32::MAX),
             None => {
                 let l = packed[i] as usize;
-                if children_done {
-                    out[i] = out[l].min(out[l + 1]);
-                } else {
-                    stack.extend([(i, true), (l, false), (l + 1, false)]);
-                }
+                out[l].min(out[l + 1])
             }
-        }
+        };
     }
     out
 }
@@ -200,21 +190,10 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
             _pad: [0; 2],
         })
         .collect();
-    // Children before parents (obvhs may store a child before its parent).
-    let mut post = Vec::with_capacity(nodes.len());
-    let mut stack = vec![(0usize, false)];
-    while let Some((i, done)) = stack.pop() {
-        match nodes[i].leaf_range() {
-            Some(_) => post.push(i),
-            None if done => post.push(i),
-            None => {
-                let l = nodes[i].packed as usize;
-                stack.extend([(i, true), (l, false), (l + 1, false)]);
-            }
-        }
-    }
+    // Children before parents: walking back from the last node, since the
+    // depth-first layout stores every child after its parent.
     let mut count = vec![0u32; nodes.len()];
-    for &i in &post {
+    for i in (0..nodes.len()).rev() {
         count[i] = match nodes[i].leaf_range() {
             Some((_, c)) => c,
             None => {
@@ -255,7 +234,7 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
         .collect();
     // The large ones, children first: every vertex below lies in the box
     // and in a child's sphere.
-    for &i in &post {
+    for i in (0..nodes.len()).rev() {
         out[i].radius = match exact[i] {
             Some(r) => r,
             None => {
