@@ -512,7 +512,8 @@ impl<'a> State<'a> {
             }
         }
         let hits = if likely_free {
-            prover.poses_wide(&queries)?
+            let needs = self.end_needs(prover, items, &cand, &queries, &owner);
+            prover.poses_wide(&queries, &needs)?
         } else {
             prover.poses(&queries)?
         };
@@ -541,6 +542,50 @@ impl<'a> State<'a> {
             }
         }
         Ok(cand.iter().map(|c| !c.is_empty()).collect())
+    }
+
+    /// What each query `(a, g)` of `offer` (owned by `items[owner[i]]`)
+    /// must keep so that the beads to the neighbouring waypoints' offered
+    /// configurations (the nearest in rotation of each, as the graph
+    /// usually takes them) start proven at this end ([`Prover::end_need`]).
+    fn end_needs(
+        &self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+        cand: &[Vec<Axes>],
+        queries: &[(Axes, u32)],
+        owner: &[usize],
+    ) -> Vec<(f64, f64)> {
+        // joined[g]: a bead is printed from g − 1 to g.
+        let mut joined = vec![false; self.pos.len()];
+        for r in &self.runs {
+            joined[r.start + 1..r.end].fill(true);
+        }
+        queries
+            .par_iter()
+            .zip(owner)
+            .map(|(&(a, _), &k)| {
+                let g = items[k].0;
+                let mut near = Vec::with_capacity(2);
+                for (j, nb) in [(k.wrapping_sub(1), g.wrapping_sub(1)), (k + 1, g + 1)] {
+                    let Some(&(h, _)) = items.get(j) else {
+                        continue;
+                    };
+                    if h != nb || !joined[g.max(nb)] {
+                        continue;
+                    }
+                    let nearest = cand[j]
+                        .iter()
+                        .map(|b| Axes {
+                            c: self.unwound(a.c, b.c),
+                            ..*b
+                        })
+                        .min_by(|x, y| a.rotation_to(x).total_cmp(&a.rotation_to(y)));
+                    near.extend(nearest);
+                }
+                prover.end_need(&a, &near)
+            })
+            .collect()
     }
 
     /// Stage 3: candidate configurations per waypoint; waypoints with none

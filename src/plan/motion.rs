@@ -28,10 +28,10 @@
 //! `m + λ (tip + turn |h|)` of material: then no head point reaches the
 //! margin `m` while the move advances by a fraction `λ` either way (it
 //! moves no farther than that in the time). So an interval `[a, b]` of
-//! the move is proven when `λ_a + λ_b ≥ b − a` (every pose in between is
-//! within reach of one end's clearance; the same holds for material
-//! points seen from the head, so containment cannot appear in between
-//! either). A level is asked as one query whose margin grows with
+//! the move is proven when `λ_a + λ_b ≥ b − a`, or one end alone reaches
+//! `b − a` (every pose in between is within reach of one end's
+//! clearance; the same holds for material points seen from the head, so
+//! containment cannot appear in between either). A level is asked as one query whose margin grows with
 //! distance from the tip ([`crate::scene::Query::slope`], see
 //! [`level_query`]): material near the tip needs little more than the
 //! tip's own travel, however far the rest of the head swings. Samples
@@ -39,6 +39,14 @@
 //! intervals each; where one fails, its intervals are halved, down to
 //! `min_step`. A move is declared colliding only when it cannot be
 //! proven at that resolution.
+//!
+//! Work is shared where moves meet. A waypoint's own pose is asked once,
+//! in the columns, for what the beads to its neighbours will ask of their
+//! ends ([`Prover::end_need`]), and the answer is kept as a sloped
+//! clearance, so those beads start proven at that end. Ends that several
+//! moves ask in the same round (the bead into a pose and the bead out of
+//! it, the pieces of a split bead) are one query asking the most any of
+//! them needs ([`share_ends`]).
 
 use crate::collide::{Backend, CollideError};
 use crate::geometry::Pose;
@@ -252,12 +260,58 @@ pub struct Prover<'a> {
     /// always be proven.
     pub min_step: f64,
     cache: Mutex<HashMap<Key, bool>>,
-    /// Poses known free, and the largest margin they are known free at
-    /// (colliding poses are not kept: they are rarely asked again).
-    known: Mutex<HashMap<[i64; 6], f64>>,
+    /// Poses known free, and what they are known free at (colliding
+    /// poses are not kept: they are rarely asked again).
+    known: Mutex<HashMap<[i64; 6], Clearance>>,
     queries: AtomicU64,
     /// Hears `(done, total)` queries of each batch as it is answered.
     ticker: Option<Ticker<'a>>,
+}
+
+/// What a pose is known to keep: every material point `q` (head frame)
+/// at least `margin` from the head (`plain`), and, from a sloped query,
+/// at least `margin + slope · |q|` (`sloped`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Clearance {
+    plain: f64,
+    sloped: Option<(f64, f64)>,
+}
+
+impl Clearance {
+    /// Known free at `(margin, slope)`.
+    fn new(margin: f64, slope: f64) -> Self {
+        Clearance {
+            plain: margin,
+            sloped: (slope > 0.0).then_some((margin, slope)),
+        }
+    }
+
+    /// What is known, with `other` learnt too.
+    fn merged(self, other: Clearance) -> Self {
+        Clearance {
+            plain: self.plain.max(other.plain),
+            // The steeper slope certifies more of a turning move's levels.
+            sloped: match (self.sloped, other.sloped) {
+                (Some(a), Some(b)) => Some(if b.1 > a.1 || (b.1 == a.1 && b.0 > a.0) {
+                    b
+                } else {
+                    a
+                }),
+                (a, b) => a.or(b),
+            },
+        }
+    }
+
+    /// The largest level (see [`level_query`]) this certifies for a move
+    /// with sweep `s` whose farthest head point travels `bound`, safety
+    /// margin `m`.
+    fn level(&self, m: f64, s: &Sweep, bound: f64) -> f64 {
+        let plain = plain_level(self.plain, m, bound);
+        let sloped = self.sloped.map_or(f64::NEG_INFINITY, |(margin, slope)| {
+            sloped_level(margin, slope, m, s)
+        });
+        plain.max(sloped)
+    }
 }
 
 /// Where a [`Prover`] reports the progress of its batches.
@@ -275,6 +329,8 @@ struct Sample {
     t: f64,
     free: f64,
     hit: f64,
+    /// An end whose shared query failed: asked on its own from now on.
+    solo: bool,
 }
 
 impl<'a> Prover<'a> {
@@ -351,12 +407,37 @@ impl<'a> Prover<'a> {
     }
 
     /// [`Prover::poses`] for poses that are usually free (a waypoint's own
-    /// orientation): each is first asked with the margin a move's first
-    /// sample needs (`margin + step / 2`), so the moves into and out of it
-    /// start proven at their ends; only those that fail are asked again at
-    /// the pose margin.
-    pub fn poses_wide(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
-        let wide = self.poses_at(items, self.margin + 0.5 * self.step)?;
+    /// orientation), each first asked once for what the moves into and
+    /// out of it will ask of their ends ([`Prover::end_need`]: a margin of
+    /// at least `margin + step / 2`, growing with distance from the tip
+    /// where the moves turn), so those moves start proven at their ends;
+    /// only those that fail are asked again at the pose margin.
+    /// `needs[i]` is item `i`'s `(margin, slope)`.
+    pub fn poses_wide(
+        &self,
+        items: &[(Axes, u32)],
+        needs: &[(f64, f64)],
+    ) -> Result<Vec<bool>, CollideError> {
+        let q: Vec<Query> = items
+            .par_iter()
+            .zip(needs)
+            .map(|(&(a, cutoff), &(margin, slope))| Query {
+                slope: slope as f32,
+                ..self.query(&a, cutoff, margin)
+            })
+            .collect();
+        let wide = self.evaluate(&q)?;
+        {
+            let mut known = self.known.lock().expect("prover cache");
+            for ((&(a, cutoff), &(margin, slope)), &h) in items.iter().zip(needs).zip(&wide) {
+                if !h {
+                    let e = known
+                        .entry(pose_key(&a, cutoff))
+                        .or_insert(Clearance::new(margin, slope));
+                    *e = e.merged(Clearance::new(margin, slope));
+                }
+            }
+        }
         let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
         let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
         let hits = self.poses(&again)?;
@@ -365,6 +446,32 @@ impl<'a> Prover<'a> {
             out[i] = h;
         }
         Ok(out)
+    }
+
+    /// The `(margin, slope)` a pose `a` must keep so that the moves
+    /// between it and each of `neighbours` need no query at this end:
+    /// the level their first samples ask of an end (half the first
+    /// interval), as one query ([`level_query`]); never less than
+    /// `margin + step / 2`. Moves that turn too far for a sloped query
+    /// (the uniform form) add nothing: their ends are asked as they come.
+    pub fn end_need(&self, a: &Axes, neighbours: &[Axes]) -> (f64, f64) {
+        let mut need = (self.margin + 0.5 * self.step, 0.0f64);
+        for b in neighbours {
+            let sw = sweep(self.machine, a, b);
+            let level = 0.5 / self.first_samples(&sw) as f64;
+            if level * sw.turn < 0.5 {
+                let (margin, slope) = level_query(self.margin, &sw, self.reach, level);
+                need = (need.0.max(margin), need.1.max(slope));
+            }
+        }
+        need
+    }
+
+    /// Intervals a move with sweep `sw` starts with: the tip moves no
+    /// farther than `step` over one; long moves (travels) start coarser,
+    /// with at most 64, refined only where material is near.
+    fn first_samples(&self, sw: &Sweep) -> usize {
+        ((sw.tip / self.step).ceil() as usize).clamp(1, 64)
     }
 
     /// Record that the pose `(a, cutoff)` has the verdict of a pose it is
@@ -388,7 +495,7 @@ impl<'a> Prover<'a> {
                 .map(|k| {
                     known
                         .get(k)
-                        .and_then(|&free| (free >= margin).then_some(false))
+                        .and_then(|free| (free.plain >= margin).then_some(false))
                 })
                 .collect()
         };
@@ -401,8 +508,8 @@ impl<'a> Prover<'a> {
         let mut known = self.known.lock().expect("prover cache");
         for (&i, h) in todo.iter().zip(hits) {
             if !h {
-                let e = known.entry(keys[i]).or_insert(margin);
-                *e = e.max(margin);
+                let e = known.entry(keys[i]).or_insert(Clearance::new(margin, 0.0));
+                *e = e.merged(Clearance::new(margin, 0.0));
             }
             out[i] = Some(h);
         }
@@ -490,32 +597,29 @@ impl<'a> Prover<'a> {
         // `(M − m) / bound`.
         let mut samples: Vec<Vec<Sample>> = {
             let known = self.known.lock().expect("prover cache");
-            let at = |a: &Axes, cutoff: u32, d: f64| {
-                let k = |c: u32| {
-                    known
-                        .get(&pose_key(a, c))
-                        .copied()
-                        .unwrap_or(f64::NEG_INFINITY)
-                };
-                plain_level(k(cutoff).max(k(cutoff + 1)), m, d)
+            let at = |a: &Axes, cutoff: u32, sw: &Sweep, d: f64| {
+                [cutoff, cutoff + 1]
+                    .iter()
+                    .filter_map(|&c| known.get(&pose_key(a, c)))
+                    .map(|k| k.level(m, sw, d))
+                    .fold(f64::NEG_INFINITY, f64::max)
             };
             sweeps
                 .iter()
                 .zip(&bounds)
                 .zip(moves)
                 .map(|((sw, &d), mv)| {
-                    // Long moves (travels) start coarser: at most 64
-                    // samples, refined only where material is near.
-                    let n = ((sw.tip / self.step).ceil() as usize).clamp(1, 64);
+                    let n = self.first_samples(sw);
                     (0..=n)
                         .map(|k| Sample {
                             t: k as f64 / n as f64,
                             free: match k {
-                                0 => at(&mv.from, mv.cutoff, d),
-                                _ if k == n => at(&mv.to, mv.cutoff, d),
+                                0 => at(&mv.from, mv.cutoff, sw, d),
+                                _ if k == n => at(&mv.to, mv.cutoff, sw, d),
                                 _ => f64::NEG_INFINITY,
                             },
                             hit: f64::INFINITY,
+                            solo: false,
                         })
                         .collect()
                 })
@@ -546,30 +650,115 @@ impl<'a> Prover<'a> {
             if flat.is_empty() {
                 break;
             }
-            let queries: Vec<Query> = flat
+            let asks: Vec<Ask> = flat
                 .par_iter()
                 .map(|&(i, k, level)| {
                     let mv = &moves[i];
-                    let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
                     let (margin, slope) = level_query(m, &sweeps[i], self.reach, level);
+                    let last = samples[i].len() - 1;
+                    let end = match k {
+                        _ if samples[i][k].solo => None,
+                        0 => Some(mv.from),
+                        _ if k == last => Some(mv.to),
+                        _ => None,
+                    };
+                    Ask {
+                        end,
+                        cutoff: mv.cutoff,
+                        margin,
+                        slope,
+                    }
+                })
+                .collect();
+            let (slot, shared, grown) = share_ends(&asks);
+            let queries: Vec<Query> = shared
+                .par_iter()
+                .zip(&grown)
+                .map(|(&j, a)| {
+                    let (i, k, _) = flat[j];
+                    let mv = &moves[i];
+                    let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
                     Query {
-                        slope: slope as f32,
-                        ..self.query_pose(pose, mv.cutoff, margin)
+                        slope: a.slope as f32,
+                        ..self.query_pose(pose, a.cutoff, a.margin)
                     }
                 })
                 .collect();
             let hits = self.evaluate(&queries)?;
-            for (&(i, k, level), hit) in flat.iter().zip(hits) {
+            let mut known = self.known.lock().expect("prover cache");
+            for (j, &(i, k, level)) in flat.iter().enumerate() {
+                let q = &grown[slot[j]];
                 let s = &mut samples[i][k];
-                if hit {
+                if !hits[slot[j]] {
+                    s.free = s.free.max(level);
+                    if let Some(a) = q.end {
+                        let e = known
+                            .entry(pose_key(&a, q.cutoff))
+                            .or_insert(Clearance::new(q.margin, q.slope));
+                        *e = e.merged(Clearance::new(q.margin, q.slope));
+                    }
+                } else if asks[j].same_need(q) {
                     s.hit = s.hit.min(level);
                 } else {
-                    s.free = s.free.max(level);
+                    // The shared query asked more than this end needs.
+                    s.solo = true;
                 }
             }
         }
         Ok(verdict.into_iter().map(|v| v.unwrap_or(true)).collect())
     }
+}
+
+/// One query a round of [`Prover::prove`] needs: a sample of a move at
+/// the `(margin, slope)` of its level; `end` is the sample's axes when it
+/// is a move's end (which neighbouring moves may share).
+#[derive(Clone, Copy)]
+struct Ask {
+    end: Option<Axes>,
+    cutoff: u32,
+    margin: f64,
+    slope: f64,
+}
+
+impl Ask {
+    /// Does `self` ask as much as `other` on every count?
+    fn same_need(&self, other: &Ask) -> bool {
+        self.cutoff >= other.cutoff && self.margin >= other.margin && self.slope >= other.slope
+    }
+}
+
+/// Ends of moves asked in the same round at the same pose (the bead into
+/// a waypoint and the bead out of it; the pieces of a split bead) become
+/// one query asking the most any of them asks — the largest margin, slope
+/// and cutoff — which certifies each. Returns, per ask, the index of its
+/// query; per query, the ask whose pose it takes (the first of its group)
+/// and what it asks (the group's need).
+fn share_ends(asks: &[Ask]) -> (Vec<usize>, Vec<usize>, Vec<Ask>) {
+    let mut first: HashMap<[i64; 6], usize> = HashMap::new();
+    let mut slot = Vec::with_capacity(asks.len());
+    let mut shared: Vec<usize> = Vec::new();
+    let mut grown: Vec<Ask> = Vec::new();
+    for (j, a) in asks.iter().enumerate() {
+        let group = a.end.map(|e| pose_key(&e, 0));
+        match group.and_then(|key| first.get(&key).copied()) {
+            Some(q) => {
+                let g = &mut grown[q];
+                g.cutoff = g.cutoff.max(a.cutoff);
+                g.margin = g.margin.max(a.margin);
+                g.slope = g.slope.max(a.slope);
+                slot.push(q);
+            }
+            None => {
+                if let Some(key) = group {
+                    first.insert(key, shared.len());
+                }
+                slot.push(shared.len());
+                shared.push(j);
+                grown.push(*a);
+            }
+        }
+    }
+    (slot, shared, grown)
 }
 
 /// The level (fraction of its move, see [`level_query`]) a pose known free
@@ -583,6 +772,27 @@ fn plain_level(margin: f64, m: f64, bound: f64) -> f64 {
     } else {
         f64::INFINITY
     }
+}
+
+/// The level a pose known free at `(margin, slope)` certifies for a move
+/// with sweep `s` (safety margin `m`): the largest `λ` whose
+/// [`level_query`] asks no more, `margin ≥ (m + λ tip) / (1 − λ turn)`
+/// and `slope ≥ λ turn / (1 − λ turn)`.
+fn sloped_level(margin: f64, slope: f64, m: f64, s: &Sweep) -> f64 {
+    if margin < m {
+        return f64::NEG_INFINITY;
+    }
+    let by_margin = if s.tip + margin * s.turn > 0.0 {
+        (margin - m) / (s.tip + margin * s.turn)
+    } else {
+        f64::INFINITY
+    };
+    let by_slope = if s.turn > 0.0 {
+        slope / ((1.0 + slope) * s.turn)
+    } else {
+        f64::INFINITY
+    };
+    by_margin.min(by_slope)
 }
 
 /// The query `(margin, slope)` that certifies a pose of a move with sweep
@@ -608,14 +818,19 @@ fn level_query(m: f64, s: &Sweep, reach: f64, level: f64) -> (f64, f64) {
 /// travels `d`): the `(sample, level)` queries its unproven intervals need,
 /// splitting each interval that no query can settle any more (an end
 /// already failed at the level asked of it). An interval `[a, b]` is
-/// proven when `level(a) + level(b) ≥ b − a`; its ends are asked half
+/// proven when `level(a) + level(b) ≥ b − a` (or one end's level alone
+/// reaches `b − a`); its ends are asked half
 /// each, or, when one end is already known free at a quarter of the span
 /// or more, the other asked the rest. Returns the decision instead once
 /// the move is proven free (`Some(false)`) or cannot be (`Some(true)`: a
 /// blocked interval whose half moves the head less than `min_step`).
 fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64)>, Option<bool>) {
-    // (The tolerance absorbs rounding.)
-    let proven = |a: &Sample, b: &Sample| a.free + b.free >= (b.t - a.t) * (1.0 - 1e-9);
+    // (The tolerance absorbs rounding.) One end known at the whole span
+    // covers the interval alone, whatever is known of the other.
+    let proven = |a: &Sample, b: &Sample| {
+        let span = (b.t - a.t) * (1.0 - 1e-9);
+        a.free >= span || b.free >= span || a.free + b.free >= span
+    };
     // The levels wanted of the ends of an unproven interval.
     let want = |a: &Sample, b: &Sample| {
         let span = b.t - a.t;
@@ -645,6 +860,7 @@ fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64
                     t: 0.5 * (a.t + b.t),
                     free: f64::NEG_INFINITY,
                     hit: f64::INFINITY,
+                    solo: false,
                 },
             );
             k += 2;
@@ -771,6 +987,215 @@ mod tests {
                 assert!(margin <= m + level * s.within(reach) + 1e-12 || slope == 0.0);
             }
         }
+    }
+
+    /// A backend that answers by the query alone: a hit when it asks for
+    /// more than `margin` and more than `slope` at once (monotone, as
+    /// every real backend is: asking more never turns a hit free).
+    struct Profile {
+        margin: f32,
+        slope: f32,
+        asked: Mutex<Vec<Query>>,
+    }
+
+    impl Backend for Profile {
+        fn name(&self) -> &'static str {
+            "profile"
+        }
+        fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
+            self.asked.lock().unwrap().extend_from_slice(q);
+            Ok(q.iter()
+                .map(|q| q.margin > self.margin && q.slope > self.slope)
+                .collect())
+        }
+    }
+
+    fn profile(margin: f32, slope: f32) -> Profile {
+        Profile {
+            margin,
+            slope,
+            asked: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A chain of beads through free poses: each waypoint between two beads
+    /// is asked once for both (shared ends), not once per bead.
+    #[test]
+    fn beads_of_a_chain_share_their_ends() {
+        let m = Machine::default();
+        let fake = profile(f32::INFINITY, f32::INFINITY);
+        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let way: Vec<Axes> = (0..7)
+            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
+            .collect();
+        let beads: Vec<MoveSpec> = way
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| MoveSpec {
+                from: w[0],
+                to: w[1],
+                cutoff: k as u32 + 1,
+            })
+            .collect();
+        let intervals: usize = beads
+            .iter()
+            .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)))
+            .sum();
+        assert!(prover.moves(&beads).unwrap().iter().all(|&h| !h));
+        // Every sample once: the 7 waypoints and the interior samples.
+        let interior = intervals - beads.len();
+        assert_eq!(prover.queries() as usize, way.len() + interior);
+        // A shared end asks what its neighbour's bead needs, with the later
+        // bead's material.
+        let asked = fake.asked.lock().unwrap();
+        let mid = m.pose(&way[3]);
+        let q = asked
+            .iter()
+            .find(|q| q.pose.tip == mid.tip && q.pose.cols == mid.cols)
+            .expect("waypoint 3 asked");
+        assert_eq!(q.cutoff, 4);
+    }
+
+    /// Waypoints asked for what their beads need of them
+    /// ([`Prover::end_need`]) start those beads proven at both ends: the
+    /// beads ask only their interior samples.
+    #[test]
+    fn waypoints_asked_for_their_beads_need_no_end_samples() {
+        let m = Machine::default();
+        let fake = profile(f32::INFINITY, f32::INFINITY);
+        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let way: Vec<Axes> = (0..7)
+            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
+            .collect();
+        let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], k as u32 + 1)).collect();
+        let needs: Vec<(f64, f64)> = (0..way.len())
+            .map(|k| {
+                let near: Vec<Axes> = [k.wrapping_sub(1), k + 1]
+                    .iter()
+                    .filter_map(|&j| way.get(j).copied())
+                    .collect();
+                prover.end_need(&way[k], &near)
+            })
+            .collect();
+        // Turning beads need a slope.
+        assert!(needs.iter().all(|n| n.1 > 0.0 && n.0 > 0.05));
+        assert!(prover
+            .poses_wide(&items, &needs)
+            .unwrap()
+            .iter()
+            .all(|&h| !h));
+        let before = prover.queries() as usize;
+        assert_eq!(before, way.len());
+        let beads: Vec<MoveSpec> = way
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| MoveSpec {
+                from: w[0],
+                to: w[1],
+                cutoff: k as u32 + 1,
+            })
+            .collect();
+        let interior: usize = beads
+            .iter()
+            .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)) - 1)
+            .sum();
+        assert!(interior > 0);
+        assert!(prover.moves(&beads).unwrap().iter().all(|&h| !h));
+        assert_eq!(prover.queries() as usize - before, interior);
+    }
+
+    /// When the shared query of an end asks more than one of its beads
+    /// needs and fails, each bead asks that end again on its own, and
+    /// both are proven; the failure is not held against the weaker ask.
+    #[test]
+    fn a_failed_shared_end_is_asked_again_alone() {
+        let m = Machine::default();
+        let (a, b, c) = (
+            axes(&m, [0.0, 0.0, 40.0], 10.0, 0.0),
+            axes(&m, [0.59, 0.0, 40.0], 10.0, 0.0),
+            axes(&m, [0.79, 0.0, 40.0], 10.0, 4.0),
+        );
+        // What each bead asks of b at its first samples' level.
+        let need = |x: &Axes, y: &Axes| {
+            let sw = sweep(&m, x, y);
+            let n = ((sw.tip / 0.3).ceil() as usize).clamp(1, 64);
+            level_query(0.05, &sw, 36.0, 0.5 / n as f64)
+        };
+        let ((m1, k1), (m2, k2)) = (need(&a, &b), need(&b, &c));
+        assert!(m1 > m2 && k2 > k1, "({m1}, {k1}) ({m2}, {k2})");
+        // Free for each alone, a hit for both at once.
+        let fake = profile(0.5 * (m1 + m2) as f32, 0.5 * (k1 + k2) as f32);
+        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let beads = [
+            MoveSpec {
+                from: a,
+                to: b,
+                cutoff: 1,
+            },
+            MoveSpec {
+                from: b,
+                to: c,
+                cutoff: 2,
+            },
+        ];
+        assert_eq!(prover.moves(&beads).unwrap(), vec![false, false]);
+        let asked = fake.asked.lock().unwrap();
+        let at_b = m.pose(&b);
+        let ends: Vec<&Query> = asked
+            .iter()
+            .filter(|q| q.pose.tip == at_b.tip && q.pose.cols == at_b.cols)
+            .collect();
+        // Shared (failed), then once for each bead.
+        assert_eq!(ends.len(), 3, "{ends:?}");
+    }
+
+    /// A pose known free at a sloped clearance certifies, for a move, the
+    /// largest level whose query asks no more than that clearance.
+    #[test]
+    fn sloped_clearances_certify_the_levels_they_cover() {
+        let m = 0.05;
+        for (tip, turn) in [(0.5, 0.0), (0.3, 0.02), (0.1, 0.3), (2.0, 0.05)] {
+            let s = Sweep { tip, turn };
+            for level in [0.05, 0.2, 0.5, 0.9] {
+                if level * turn >= 0.5 {
+                    continue;
+                }
+                let (margin, slope) = level_query(m, &s, 36.0, level);
+                let got = sloped_level(margin, slope, m, &s);
+                assert!(
+                    (got - level).abs() <= 1e-9 * level.max(1.0) || (turn == 0.0 && got >= level),
+                    "sweep {s:?}, level {level}: certified {got}"
+                );
+                // A little less clearance certifies less.
+                assert!(sloped_level(margin * 0.99, slope, m, &s) < level);
+            }
+        }
+        // A plain clearance certifies by the head's whole sweep.
+        let c = Clearance::new(0.2, 0.0);
+        let s = Sweep {
+            tip: 0.3,
+            turn: 0.01,
+        };
+        assert!((c.level(m, &s, s.within(36.0)) - 0.15 / s.within(36.0)).abs() < 1e-12);
+    }
+
+    /// One end known free for the whole span proves the interval, however
+    /// little is known of the other end.
+    #[test]
+    fn one_end_can_cover_an_interval_alone() {
+        let sample = |t: f64, free: f64| Sample {
+            t,
+            free,
+            hit: f64::INFINITY,
+            solo: false,
+        };
+        let mut s = vec![sample(0.0, 1.0), sample(1.0, f64::NEG_INFINITY)];
+        assert_eq!(plan_requests(&mut s, 1.0, 0.005), (Vec::new(), Some(false)));
+        let mut s = vec![sample(0.0, 0.6), sample(1.0, f64::NEG_INFINITY)];
+        let (ask, decided) = plan_requests(&mut s, 1.0, 0.005);
+        assert_eq!(decided, None);
+        assert_eq!(ask.len(), 1);
+        assert!((ask[0].1 - 0.4).abs() < 1e-12);
     }
 
     #[test]
