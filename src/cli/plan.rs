@@ -246,15 +246,14 @@ pub fn run(a: PlanArgs) -> Result<()> {
     show.begin("writing");
     let t1 = Instant::now();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let gcode = write_gcode(
-        &machine,
-        &p.program,
-        &GcodeHeader {
-            source: job.source.clone(),
-            command: command.clone(),
-        },
+    let header = GcodeHeader {
+        source: job.source.clone(),
+        command: command.clone(),
+    };
+    let (gcode, csv) = rayon::join(
+        || write_gcode(&machine, &p.program, &header),
+        || write_plan_csv(&machine, &p.waypoints),
     );
-    let csv = write_plan_csv(&machine, &p.waypoints);
     let write_s = t1.elapsed().as_secs_f64();
     show.stage_line("write", write_s, None);
     let mut stages = serde_json::Map::new();
