@@ -201,14 +201,14 @@ pub struct MoveSpec {
     pub cutoff: u32,
 }
 
-type Key = [i64; 11];
+type Key = [i32; 11];
 
-/// A move's identity on the program's grid (micrometres, millidegrees),
-/// with C taken modulo a turn at the start: moves that differ only by whole
-/// turns of C are the same motion.
+/// A move's identity on the program's grid (micrometres, millidegrees, in
+/// 32 bits: ±2 km, ±5,965 turns), with C taken modulo a turn at the start:
+/// moves that differ only by whole turns of C are the same motion.
 fn key(mv: &MoveSpec) -> Key {
-    let um = |x: f64| (x * 1000.0).round() as i64;
-    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i64;
+    let um = |x: f64| (x * 1000.0).round() as i32;
+    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i32;
     let (a, b) = (&mv.from, &mv.to);
     let (ca, cb) = (md(a.c), md(b.c));
     [
@@ -221,24 +221,27 @@ fn key(mv: &MoveSpec) -> Key {
         um(b.xyz[1]),
         um(b.xyz[2]),
         md(b.tilt),
-        cb - ca,
-        mv.cutoff as i64,
+        cb.wrapping_sub(ca),
+        mv.cutoff as i32,
     ]
 }
 
 /// A pose's identity on the program's grid, with its cutoff.
-fn pose_key(a: &Axes, cutoff: u32) -> [i64; 6] {
-    let um = |x: f64| (x * 1000.0).round() as i64;
-    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i64;
+fn pose_key(a: &Axes, cutoff: u32) -> PoseKey {
+    let um = |x: f64| (x * 1000.0).round() as i32;
+    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i32;
     [
         um(a.xyz[0]),
         um(a.xyz[1]),
         um(a.xyz[2]),
         md(a.tilt),
         md(a.c).rem_euclid(360_000),
-        cutoff as i64,
+        cutoff as i32,
     ]
 }
+
+/// [`pose_key`]'s value.
+type PoseKey = [i32; 6];
 
 /// Proves poses and joint-linear moves free at the safety margin, with
 /// one backend, in batches. What it has proven is kept (moves keyed by
@@ -262,43 +265,56 @@ pub struct Prover<'a> {
     cache: Mutex<HashMap<Key, bool>>,
     /// Poses known free, and what they are known free at (colliding
     /// poses are not kept: they are rarely asked again).
-    known: Mutex<HashMap<[i64; 6], Clearance>>,
+    known: Mutex<HashMap<PoseKey, Clearance>>,
     queries: AtomicU64,
     /// Hears `(done, total)` queries of each batch as it is answered.
     ticker: Option<Ticker<'a>>,
 }
 
 /// What a pose is known to keep: every material point `q` (head frame)
-/// at least `margin` from the head (`plain`), and, from a sloped query,
-/// at least `margin + slope · |q|` (`sloped`).
+/// at least `plain` from the head, and, from a sloped query, at least
+/// `margin + slope · |q|` (`slope` 0: none known). Kept as the queries
+/// asked them (f32), 12 bytes a pose.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Clearance {
-    plain: f64,
-    sloped: Option<(f64, f64)>,
+    plain: f32,
+    margin: f32,
+    slope: f32,
 }
 
 impl Clearance {
     /// Known free at `(margin, slope)`.
     fn new(margin: f64, slope: f64) -> Self {
-        Clearance {
-            plain: margin,
-            sloped: (slope > 0.0).then_some((margin, slope)),
+        let (margin, slope) = (margin as f32, slope as f32);
+        if slope > 0.0 {
+            Clearance {
+                plain: margin,
+                margin,
+                slope,
+            }
+        } else {
+            Clearance {
+                plain: margin,
+                margin: 0.0,
+                slope: 0.0,
+            }
         }
     }
 
     /// What is known, with `other` learnt too.
     fn merged(self, other: Clearance) -> Self {
+        // The steeper slope certifies more of a turning move's levels.
+        let steeper =
+            other.slope > self.slope || (other.slope == self.slope && other.margin > self.margin);
+        let (margin, slope) = if steeper {
+            (other.margin, other.slope)
+        } else {
+            (self.margin, self.slope)
+        };
         Clearance {
             plain: self.plain.max(other.plain),
-            // The steeper slope certifies more of a turning move's levels.
-            sloped: match (self.sloped, other.sloped) {
-                (Some(a), Some(b)) => Some(if b.1 > a.1 || (b.1 == a.1 && b.0 > a.0) {
-                    b
-                } else {
-                    a
-                }),
-                (a, b) => a.or(b),
-            },
+            margin,
+            slope,
         }
     }
 
@@ -306,11 +322,12 @@ impl Clearance {
     /// with sweep `s` whose farthest head point travels `bound`, safety
     /// margin `m`.
     fn level(&self, m: f64, s: &Sweep, bound: f64) -> f64 {
-        let plain = plain_level(self.plain, m, bound);
-        let sloped = self.sloped.map_or(f64::NEG_INFINITY, |(margin, slope)| {
-            sloped_level(margin, slope, m, s)
-        });
-        plain.max(sloped)
+        let plain = plain_level(self.plain as f64, m, bound);
+        if self.slope > 0.0 {
+            plain.max(sloped_level(self.margin as f64, self.slope as f64, m, s))
+        } else {
+            plain
+        }
     }
 }
 
@@ -488,14 +505,14 @@ impl<'a> Prover<'a> {
     /// material? Poses already known free at a larger margin are answered
     /// without a query.
     pub fn poses_at(&self, items: &[(Axes, u32)], margin: f64) -> Result<Vec<bool>, CollideError> {
-        let keys: Vec<[i64; 6]> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
+        let keys: Vec<PoseKey> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
         let mut out: Vec<Option<bool>> = {
             let known = self.known.lock().expect("prover cache");
             keys.iter()
                 .map(|k| {
                     known
                         .get(k)
-                        .and_then(|free| (free.plain >= margin).then_some(false))
+                        .and_then(|free| (free.plain >= margin as f32).then_some(false))
                 })
                 .collect()
         };
@@ -734,7 +751,7 @@ impl Ask {
 /// query; per query, the ask whose pose it takes (the first of its group)
 /// and what it asks (the group's need).
 fn share_ends(asks: &[Ask]) -> (Vec<usize>, Vec<usize>, Vec<Ask>) {
-    let mut first: HashMap<[i64; 6], usize> = HashMap::new();
+    let mut first: HashMap<PoseKey, usize> = HashMap::new();
     let mut slot = Vec::with_capacity(asks.len());
     let mut shared: Vec<usize> = Vec::new();
     let mut grown: Vec<Ask> = Vec::new();
@@ -1176,7 +1193,9 @@ mod tests {
             tip: 0.3,
             turn: 0.01,
         };
-        assert!((c.level(m, &s, s.within(36.0)) - 0.15 / s.within(36.0)).abs() < 1e-12);
+        // (Kept as the query asked it: in f32.)
+        let want = (0.2f32 as f64 - m) / s.within(36.0);
+        assert!((c.level(m, &s, s.within(36.0)) - want).abs() < 1e-12);
     }
 
     /// One end known free for the whole span proves the interval, however
