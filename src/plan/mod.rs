@@ -848,8 +848,10 @@ impl<'a> State<'a> {
             for ((s, _), p) in dirty.iter().zip(fresh) {
                 search.paths[*s] = p;
             }
-            let mut moves = Vec::new();
-            let mut edges = Vec::new();
+            // The path's printing edges not known yet, then their moves
+            // (splitting a bead asks which layer its points read as: in
+            // parallel, in edge order).
+            let mut todo = Vec::new();
             for (s, _) in &dirty {
                 let (r, p) = (&self.sections[*s], &search.paths[*s]);
                 for k in 1..r.len() {
@@ -858,15 +860,21 @@ impl<'a> State<'a> {
                     if p.breaks[k] || known.proven.contains(&key) || known.blocked.contains(&key) {
                         continue;
                     }
-                    let g = r.start + k;
-                    let first = moves.len();
-                    moves.extend(self.print_moves(
-                        g,
-                        &self.cols[g - 1][key.1],
-                        &self.cols[g][key.2],
-                    ));
-                    edges.push((*s, key, first..moves.len()));
+                    todo.push((*s, key, r.start + k));
                 }
+            }
+            let per_edge: Vec<Vec<MoveSpec>> = todo
+                .par_iter()
+                .map(|&(_, key, g)| {
+                    self.print_moves(g, &self.cols[g - 1][key.1], &self.cols[g][key.2])
+                })
+                .collect();
+            let mut moves = Vec::new();
+            let mut edges = Vec::with_capacity(todo.len());
+            for ((s, key, _), m) in todo.into_iter().zip(per_edge) {
+                let first = moves.len();
+                moves.extend(m);
+                edges.push((s, key, first..moves.len()));
             }
             let hits = prover.moves(&moves)?;
             dirty.clear();
