@@ -293,13 +293,13 @@ pub fn run(a: PlanArgs) -> Result<()> {
     if !a.no_plots {
         show.begin("report");
         let t2 = Instant::now();
-        let figs =
-            maamplan::report::plots::write_figures(&machine, &p, &scratch.path().join("plots"))
-                .map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-        put(
-            "scene.glb",
-            &maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
-        )?;
+        // The figures and the scene file are independent: side by side.
+        let (figs, glb) = rayon::join(
+            || maamplan::report::plots::write_figures(&machine, &p, &scratch.path().join("plots")),
+            || maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
+        );
+        let figs = figs.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+        put("scene.glb", &glb)?;
         let html = maamplan::report::html::report_html(
             &maamplan::report::html::ReportContext {
                 source: &job.source,

@@ -12,6 +12,7 @@ use crate::simulate::{MoveReport, Simulation};
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::Once;
 
@@ -56,59 +57,86 @@ fn svg_figure(
     Ok(Figure { name, title, svg })
 }
 
-/// Every figure of `plan`.
+/// One of the plan's charts.
+#[derive(Clone, Copy)]
+enum PlanChart {
+    /// B and C per waypoint of a layer.
+    Layer(usize),
+    /// The tip-speed histogram.
+    TipSpeed,
+    /// Colliding waypoints per layer.
+    Collisions,
+}
+
+impl PlanChart {
+    /// Every chart of `plan`, in the report's order.
+    fn all(plan: &Plan) -> Vec<PlanChart> {
+        let layers = layer_table(plan).len();
+        (0..layers)
+            .map(PlanChart::Layer)
+            .chain([PlanChart::TipSpeed, PlanChart::Collisions])
+            .collect()
+    }
+
+    fn name(self) -> String {
+        match self {
+            PlanChart::Layer(k) => format!("bc_layer_{k}"),
+            PlanChart::TipSpeed => "tip_speed".into(),
+            PlanChart::Collisions => "collisions".into(),
+        }
+    }
+
+    fn title(self) -> String {
+        match self {
+            PlanChart::Layer(k) => format!("Layer {k}: B and C per waypoint"),
+            PlanChart::TipSpeed => "Tip speed per segment".into(),
+            PlanChart::Collisions => "Colliding waypoints per layer".into(),
+        }
+    }
+
+    fn draw<DB: DrawingBackend>(
+        self,
+        root: DrawingArea<DB, Shift>,
+        m: &Machine,
+        plan: &Plan,
+    ) -> DrawResult {
+        match self {
+            PlanChart::Layer(k) => bc_chart(root, plan, k),
+            PlanChart::TipSpeed => speed_chart(root, m, plan),
+            PlanChart::Collisions => collision_chart(root, plan),
+        }
+    }
+
+    fn svg(self, m: &Machine, plan: &Plan) -> Result<Figure, String> {
+        svg_figure(self.name(), self.title(), &|root| self.draw(root, m, plan))
+    }
+}
+
+/// Every figure of `plan` (drawn in parallel, returned in order).
 pub fn figures(m: &Machine, plan: &Plan) -> Result<Vec<Figure>, String> {
     fonts();
-    let mut out = Vec::new();
-    let mut svg = |name: String,
-                   title: String,
-                   draw: &dyn Fn(DrawingArea<SVGBackend, Shift>) -> DrawResult|
-     -> DrawResult {
-        out.push(svg_figure(name, title, draw)?);
-        Ok(())
-    };
-    let layers = layer_table(plan).len();
-    for k in 0..layers {
-        svg(
-            format!("bc_layer_{k}"),
-            format!("Layer {k}: B and C per waypoint"),
-            &|root| bc_chart(root, plan, k),
-        )?;
-    }
-    svg(
-        "tip_speed".into(),
-        "Tip speed per segment".into(),
-        &|root| speed_chart(root, m, plan),
-    )?;
-    svg(
-        "collisions".into(),
-        "Colliding waypoints per layer".into(),
-        &|root| collision_chart(root, plan),
-    )?;
-    Ok(out)
+    PlanChart::all(plan)
+        .par_iter()
+        .map(|c| c.svg(m, plan))
+        .collect()
 }
 
 /// Write every figure as `<name>.svg` and `<name>.png` into `dir` (the
-/// caller makes the whole folder appear at once).
+/// caller makes the whole folder appear at once); figures are drawn in
+/// parallel and returned in order.
 pub fn write_figures(m: &Machine, plan: &Plan, dir: &Path) -> Result<Vec<Figure>, String> {
-    let figs = figures(m, plan)?;
+    fonts();
     std::fs::create_dir_all(dir).map_err(err)?;
-    let layers = layer_table(plan).len();
-    for f in &figs {
-        std::fs::write(dir.join(format!("{}.svg", f.name)), f.svg.as_bytes()).map_err(err)?;
-        let png = dir.join(format!("{}.png", f.name));
-        let root = BitMapBackend::new(&png, SIZE).into_drawing_area();
-        match f.name.strip_prefix("bc_layer_") {
-            Some(k) => bc_chart(
-                root,
-                plan,
-                k.parse().unwrap_or(0).min(layers.saturating_sub(1)),
-            )?,
-            None if f.name == "tip_speed" => speed_chart(root, m, plan)?,
-            None => collision_chart(root, plan)?,
-        }
-    }
-    Ok(figs)
+    PlanChart::all(plan)
+        .par_iter()
+        .map(|c| {
+            let f = c.svg(m, plan)?;
+            std::fs::write(dir.join(format!("{}.svg", f.name)), f.svg.as_bytes()).map_err(err)?;
+            let png = dir.join(format!("{}.png", f.name));
+            c.draw(BitMapBackend::new(&png, SIZE).into_drawing_area(), m, plan)?;
+            Ok(f)
+        })
+        .collect()
 }
 
 /// Buckets along x a per-waypoint line is drawn with (a few per pixel
