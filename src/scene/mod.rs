@@ -127,6 +127,42 @@ impl Query {
     }
 }
 
+/// The platform and every layer surface as stamped groups: welded,
+/// degenerate triangles dropped, subdivided to `max_edge`, each layer
+/// triangle stamped by its nearest waypoint ([`stamp`]); layers in
+/// parallel, in layer order.
+fn part_groups(toolpath: &Toolpath, platform: Mesh, max_edge: f32) -> Vec<PartGroup> {
+    let mut groups = Vec::with_capacity(toolpath.layers.len() + 1);
+    let platform = platform.subdivided(max_edge);
+    groups.push(PartGroup {
+        stamps: vec![0; platform.triangles.len()],
+        mesh: platform,
+        layer: None,
+    });
+    let offsets = toolpath.layer_offsets();
+    let layers: Vec<PartGroup> = toolpath
+        .layers
+        .par_iter()
+        .enumerate()
+        .filter_map(|(k, layer)| {
+            let surface = layer.surface.as_ref()?;
+            let (surface, _) = surface.welded().without_degenerate();
+            if surface.triangles.is_empty() || layer.waypoints.is_empty() {
+                return None;
+            }
+            let mesh = surface.subdivided(max_edge);
+            let stamps = stamp::nearest_waypoint_stamps(&mesh, &layer.waypoints, offsets[k]);
+            Some(PartGroup {
+                mesh,
+                stamps,
+                layer: Some(k),
+            })
+        })
+        .collect();
+    groups.extend(layers);
+    groups
+}
+
 impl Scene {
     /// Build the scene from a toolpath (layer surfaces optional), the head
     /// (closed, its own frame) and the platform (part frame).
@@ -163,36 +199,13 @@ impl Scene {
         }
         let tol = (2e-6 * scale).max(1e-6);
 
-        let head = Head::build(head_mesh, &cfg.head, tol)?;
-
-        let mut groups = Vec::with_capacity(toolpath.layers.len() + 1);
-        let platform = platform.subdivided(max_edge);
-        groups.push(PartGroup {
-            stamps: vec![0; platform.triangles.len()],
-            mesh: platform,
-            layer: None,
-        });
-        let offsets = toolpath.layer_offsets();
-        let layers: Vec<PartGroup> = toolpath
-            .layers
-            .par_iter()
-            .enumerate()
-            .filter_map(|(k, layer)| {
-                let surface = layer.surface.as_ref()?;
-                let (surface, _) = surface.welded().without_degenerate();
-                if surface.triangles.is_empty() || layer.waypoints.is_empty() {
-                    return None;
-                }
-                let mesh = surface.subdivided(max_edge);
-                let stamps = stamp::nearest_waypoint_stamps(&mesh, &layer.waypoints, offsets[k]);
-                Some(PartGroup {
-                    mesh,
-                    stamps,
-                    layer: Some(k),
-                })
-            })
-            .collect();
-        groups.extend(layers);
+        // The head (its distance grids) and the part's layers do not
+        // depend on each other: built side by side.
+        let (head, groups) = rayon::join(
+            || Head::build(head_mesh, &cfg.head, tol),
+            || part_groups(toolpath, platform, max_edge),
+        );
+        let head = head?;
 
         let mut soup = Vec::new();
         for g in &groups {
