@@ -297,10 +297,9 @@ fn coplanar_and_edge_touching_contacts() {
     }
 }
 
-#[test]
-fn stamps_cut_a_layer_in_half() {
-    // One flat layer printed left to right; a head standing on the right
-    // half sees it only once the cutoff passes the waypoints there.
+/// One flat layer printed left to right, and a head lowered 0.5 mm into
+/// it at x = 5 (waypoint 15), asked at every cutoff from 1 to 22.
+fn half_printed_layer() -> (Scene, Vec<Query>) {
     let surface = height_patch([-10.0, 10.0], [-2.0, 2.0], 20, |_, _| 1.0);
     let waypoints: Vec<_> = (0..21)
         .map(|i| maamplan::toolpath::Waypoint {
@@ -318,7 +317,6 @@ fn stamps_cut_a_layer_in_half() {
     let head = cone_head(3.0, 3.0, 6.0, 16);
     let platform = box_mesh([-50.0, -50.0, -2.0], [50.0, 50.0, 0.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(0.3)).unwrap();
-    // Head lowered 0.5 mm into the layer at x = 5 (waypoint 15).
     let p = pose([5.0, 0.0, 0.5], [0.0, 0.0, 1.0]);
     let queries: Vec<Query> = (1..=22)
         .map(|cutoff| Query {
@@ -328,6 +326,14 @@ fn stamps_cut_a_layer_in_half() {
             slope: 0.0,
         })
         .collect();
+    (scene, queries)
+}
+
+#[test]
+fn stamps_cut_a_layer_in_half() {
+    // The head standing on the right half sees the layer only once the
+    // cutoff passes the waypoints there.
+    let (scene, queries) = half_printed_layer();
     let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();
     let first_hit = truth
         .iter()
@@ -346,4 +352,23 @@ fn stamps_cut_a_layer_in_half() {
     let parry = ParryBackend::new(&scene).unwrap();
     assert_eq!(cpu.evaluate(&queries).unwrap(), truth);
     assert_eq!(parry.evaluate(&queries).unwrap(), truth);
+}
+
+#[test]
+fn a_hits_witness_counts_only_where_it_exists() {
+    // The cpu backend tries the triangle of its previous hit first. Asked
+    // from the latest cutoff down, the triangles that decided the hits
+    // stop existing one by one: each verdict must still be the brute
+    // force's, and the same as asking each pose alone.
+    let (scene, mut queries) = half_printed_layer();
+    queries.reverse();
+    let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();
+    assert!(truth[0] && !truth[truth.len() - 1], "hits, then free");
+    let cpu = CpuBackend::new(&scene);
+    assert_eq!(cpu.evaluate(&queries).unwrap(), truth);
+    let alone: Vec<bool> = queries
+        .iter()
+        .map(|q| cpu.evaluate(std::slice::from_ref(q)).unwrap()[0])
+        .collect();
+    assert_eq!(alone, truth);
 }

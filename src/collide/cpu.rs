@@ -84,12 +84,35 @@ impl Backend for CpuBackend<'_> {
         "cpu"
     }
 
+    /// Each worker first tries the triangle that decided its previous
+    /// hit ([`witness_hits`]): the planner asks neighbouring poses in a
+    /// row (a waypoint's variants, the samples of a move), which usually
+    /// collide with the same triangle, and a colliding query otherwise
+    /// walks the tree until it meets one — on the tilted simple_curve
+    /// colliding poses cost twice what free ones do.
     fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         check_finite(queries)?;
         Ok(queries
             .par_iter()
             .with_min_len(64)
-            .map(|q| query_hits(&self.view, &q.to_gpu()))
+            .map_init(
+                || NO_TRIANGLE,
+                |witness, q| {
+                    let q = q.to_gpu();
+                    if witness_hits(&self.view, &q, *witness) {
+                        return true;
+                    }
+                    match first_hit(&self.view, &q) {
+                        Some(t) => {
+                            if t != NO_TRIANGLE {
+                                *witness = t;
+                            }
+                            true
+                        }
+                        None => false,
+                    }
+                },
+            )
             .collect())
     }
 }
@@ -190,6 +213,16 @@ pub fn clears_centre(c: V3, origin: V3, cell: f32, [ix, iy, iz]: [u32; 3], slack
 /// Does the head at query `q` touch, contain or come closer than `q.margin`
 /// to anything with `stamp < cutoff`?
 pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
+    first_hit(s, q).is_some()
+}
+
+/// What [`first_hit`] names when a whole node lies inside the head.
+pub const NO_TRIANGLE: u32 = u32::MAX;
+
+/// [`query_hits`], naming what decided it: the first triangle (index into
+/// the part triangles) that hits, or [`NO_TRIANGLE`] when a node wholly
+/// inside the head did. The same walk as the kernel's.
+pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
     let mut stack = [0u32; STACK_SIZE];
     let mut sp = 1usize;
     while sp > 0 {
@@ -210,14 +243,14 @@ pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
             continue;
         }
         if cls < 0 {
-            return true;
+            return Some(NO_TRIANGLE);
         }
         match node.leaf_range() {
             Some((first, count)) => {
                 for t in first..first + count {
                     let tri = &s.tris[t as usize];
                     if tri.stamp < q.cutoff && tri_hits(s, q, tri) {
-                        return true;
+                        return Some(t);
                     }
                 }
             }
@@ -228,7 +261,19 @@ pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
             }
         }
     }
-    false
+    None
+}
+
+/// Does triangle `t` (an earlier query's [`first_hit`]) exist at `q`'s
+/// cutoff and hit the head there? A yes is the query's answer: the walk
+/// would reach that triangle (only nodes clear of the head are skipped)
+/// and find the same.
+#[inline(always)]
+pub fn witness_hits(s: &SceneView, q: &GpuQuery, t: u32) -> bool {
+    let Some(tri) = s.tris.get(t as usize) else {
+        return false;
+    };
+    tri.stamp < q.cutoff && tri_hits(s, q, tri)
 }
 
 /// One existing part triangle against the head.
