@@ -544,6 +544,56 @@ impl<'a> State<'a> {
         Ok(cand.iter().map(|c| !c.is_empty()).collect())
     }
 
+    /// [`State::offer`] for items that list each waypoint's candidates
+    /// together, in the order they should be preferred: a waypoint's items
+    /// are offered a wave of `max_configs` at a time, and a waypoint whose
+    /// column is full asks no more. A column keeps the first free
+    /// configurations in item order up to the cap either way, so the
+    /// columns are the same as offering every item at once; what changes
+    /// is that the items the cap would drop are never asked (on dome_cut
+    /// with its normals as given, the last resort's shells asked about
+    /// 190 directions per waypoint, half of them free, to keep 16).
+    /// Waves hold at most 2²⁰ items, which bounds the batch's memory.
+    fn offer_until_full(
+        &mut self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+    ) -> Result<Vec<bool>, PlanError> {
+        const MOST: usize = 1 << 20;
+        let (wave, cap) = (self.opts.max_configs.max(1), self.opts.max_configs);
+        // Each waypoint's items: a contiguous range.
+        let mut groups: Vec<Range<usize>> = Vec::new();
+        for (i, it) in items.iter().enumerate() {
+            match groups.last_mut() {
+                Some(r) if items[r.start].0 == it.0 => r.end = i + 1,
+                _ => groups.push(i..i + 1),
+            }
+        }
+        let mut offered = vec![false; items.len()];
+        let mut next: Vec<usize> = groups.iter().map(|r| r.start).collect();
+        loop {
+            let mut asked: Vec<usize> = Vec::new();
+            for (r, at) in groups.iter().zip(next.iter_mut()) {
+                if *at == r.end || self.cols[items[r.start].0].len() >= cap {
+                    continue;
+                }
+                if asked.len() + wave > MOST && !asked.is_empty() {
+                    break;
+                }
+                let end = (*at + wave).min(r.end);
+                asked.extend(*at..end);
+                *at = end;
+            }
+            if asked.is_empty() {
+                return Ok(offered);
+            }
+            let wave_items: Vec<_> = asked.iter().map(|&i| items[i]).collect();
+            for (&i, o) in asked.iter().zip(self.offer(prover, &wave_items, false)?) {
+                offered[i] = o;
+            }
+        }
+    }
+
     /// What each query `(a, g)` of `offer` (owned by `items[owner[i]]`)
     /// must keep so that the beads to the neighbouring waypoints' offered
     /// configurations (the nearest in rotation of each, as the graph
@@ -633,7 +683,11 @@ impl<'a> State<'a> {
             if items.is_empty() {
                 break; // Sampling exhausted.
             }
-            for (k, o) in self.offer(prover, &items, false)?.into_iter().enumerate() {
+            for (k, o) in self
+                .offer_until_full(prover, &items)?
+                .into_iter()
+                .enumerate()
+            {
                 offered[items[k].0] |= o;
             }
             open.retain(|&g| self.cols[g].is_empty());
@@ -668,10 +722,12 @@ impl<'a> State<'a> {
                     near.sort_by(|a, b| a.0.total_cmp(&b.0));
                     items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
                 }
-                for chunk in items.chunks(1 << 20) {
-                    for (k, o) in self.offer(prover, chunk, false)?.into_iter().enumerate() {
-                        offered[chunk[k].0] |= o;
-                    }
+                for (k, o) in self
+                    .offer_until_full(prover, &items)?
+                    .into_iter()
+                    .enumerate()
+                {
+                    offered[items[k].0] |= o;
                 }
                 open.retain(|&g| self.cols[g].is_empty());
                 lo = hi;
@@ -1523,5 +1579,71 @@ mod tests {
         for block in [1, 7, 4096] {
             assert_eq!(largest_tip_deviation_in(&m, &moves, block), plain);
         }
+    }
+}
+
+#[cfg(test)]
+mod offer_tests {
+    use super::*;
+    use crate::collide::cpu::CpuBackend;
+    use crate::scene::{Scene, SceneConfig};
+
+    /// Offering a waypoint's candidates in waves, stopping once its column
+    /// is full, keeps the very configurations that offering them all at
+    /// once keeps (the first free ones, in order, up to the cap), and
+    /// asks fewer queries.
+    #[test]
+    fn offering_until_full_keeps_the_same_columns_with_fewer_queries() {
+        let job = crate::default_job::job();
+        let scene = Scene::build(
+            &job.toolpath,
+            &job.head,
+            &job.platform,
+            &SceneConfig::default(),
+        )
+        .unwrap();
+        let machine = Machine::default();
+        let opts = PlanOptions::default();
+        let backend = CpuBackend::new(&scene);
+        let top = machine
+            .tilt
+            .min
+            .abs()
+            .max(machine.tilt.max.abs())
+            .to_radians();
+        let grid = candidates::reachable_directions(top, opts.exhaustive_step);
+        // Every reachable direction for every 40th waypoint: most are free
+        // on this part, far more than the cap keeps.
+        let n = scene.waypoint_queries.len();
+        let items: Vec<(usize, [(f64, f64); 2])> = (0..n)
+            .step_by(40)
+            .flat_map(|g| grid.iter().map(move |d| (g, *d)))
+            .collect();
+        let columns = |waves: bool| {
+            let mut st = State::new(&scene, &job.toolpath, &machine, &opts);
+            let prover = Prover::new(&machine, &backend, head_reach(&scene), 0.05, 0.3);
+            let offered = if waves {
+                st.offer_until_full(&prover, &items).unwrap()
+            } else {
+                st.offer(&prover, &items, false).unwrap()
+            };
+            let mut any = vec![false; n];
+            for (it, o) in items.iter().zip(offered) {
+                any[it.0] |= o;
+            }
+            (st.cols, any, prover.queries())
+        };
+        let (all, all_offered, all_queries) = columns(false);
+        let (waved, waved_offered, waved_queries) = columns(true);
+        assert!(
+            all.iter().filter(|c| c.len() == opts.max_configs).count() > 10,
+            "full columns to compare"
+        );
+        assert_eq!(waved, all);
+        assert_eq!(waved_offered, all_offered);
+        assert!(
+            waved_queries * 4 < all_queries,
+            "{waved_queries} queries in waves, {all_queries} at once"
+        );
     }
 }
