@@ -35,17 +35,8 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
             v2: t.v2.into(),
         })
         .collect();
-    // obvhs' medium preset with less reinsertion and a shorter PLOC search:
-    // its ray-tracing quality buys little for our proximity walks (paired
-    // query times within noise) and cost ~0.2 s of dome_cut's 0.9 s build.
-    let params = BvhBuildParams {
-        ploc_search_distance: obvhs::ploc::PlocSearchDistance::Low,
-        search_depth_threshold: 2,
-        reinsertion_batch_ratio: 0.01,
-        post_collapse_reinsertion_batch_ratio_multiplier: 0.0,
-        max_prims_per_leaf: max_leaf.min(MAX_LEAF_TRIS),
-        ..BvhBuildParams::medium_build()
-    };
+    let mut params = BvhBuildParams::medium_build();
+    params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
     let bvh = build_bvh2_from_tris(&obv, params, &mut Duration::default());
     drop(obv);
 
