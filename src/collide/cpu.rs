@@ -4,7 +4,10 @@
 //! This file is the CPU mirror of the `collide_*` kernels (`shaders/`,
 //! helpers in `shaders/shared/collide_common.wgsl`): each function has a
 //! twin of the same name there, with the same operations in the same order,
-//! so the two backends round identically.
+//! so the two backends round identically. Two things are the CPU's own:
+//! [`first_hit`] is the kernels' `query_hits` walk naming the triangle that
+//! decided a hit, and each rayon worker first tries the triangles of its
+//! recent hits ([`witness_hits`]) — neither changes a verdict.
 //!
 //! Per query: walk the part BVH, skipping nodes with `min_stamp >= cutoff`.
 //! Each node's bounding sphere is moved into the head frame and classified
