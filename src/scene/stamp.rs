@@ -72,7 +72,10 @@ fn distance_2(a: V3, b: V3) -> f32 {
 }
 
 /// Blocks of cells searched around a centroid before the rstar fallback.
-const MAX_RING: i64 = 6;
+/// On dome_cut 86 % of the 2.2 M centroids are settled by the first block
+/// around their cell and 0.4 % need more than two; beyond three, the
+/// empty cells a block adds would cost more than rstar.
+const MAX_RING: i64 = 3;
 
 /// Cells at most, per waypoint, however small the cell size wants to be.
 const CELLS_PER_SITE: f64 = 8.0;
