@@ -110,7 +110,8 @@ const WITNESSES: usize = 8;
 /// planner asks neighbouring poses in a row, and they mostly hit one of
 /// the few triangles the last hits did. Trying eight cost nothing
 /// measurable on free runs (`plan simple_curve` paired 0.99) and took the
-/// columns of dome_cut `--keep-normals` from 19.0 to 8.5 s (one: 12.1 s).
+/// columns of dome_cut `--keep-normals` from 19.0 s (one) to 8.5 s (four:
+/// 12.1 s).
 struct Witnesses([u32; WITNESSES]);
 
 impl Default for Witnesses {

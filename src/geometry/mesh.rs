@@ -98,6 +98,25 @@ impl Mesh {
             .count()
     }
 
+    /// Total area of the triangles (f64).
+    pub fn area(&self) -> f64 {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let p = |i: u32| self.vertices[i as usize].map(f64::from);
+                let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
+                let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+                let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+                let n = [
+                    u[1] * v[2] - u[2] * v[1],
+                    u[2] * v[0] - u[0] * v[2],
+                    u[0] * v[1] - u[1] * v[0],
+                ];
+                0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+            })
+            .sum()
+    }
+
     /// Signed volume (positive when oriented outwards).
     pub fn signed_volume(&self) -> f64 {
         self.triangles
@@ -196,15 +215,7 @@ mod tests {
     fn subdivision_keeps_area_and_bounds_edges() {
         let m = tetra();
         let s = m.subdivided(0.2);
-        let area = |m: &Mesh| -> f32 {
-            (0..m.triangles.len())
-                .map(|i| {
-                    let [a, b, c] = m.corners(i);
-                    length(cross(sub(b, a), sub(c, a))) * 0.5
-                })
-                .sum()
-        };
-        assert!((area(&m) - area(&s)).abs() < 1e-4);
+        assert!((m.area() - s.area()).abs() < 1e-4);
         for i in 0..s.triangles.len() {
             let [a, b, c] = s.corners(i);
             for (p, q) in [(a, b), (b, c), (c, a)] {

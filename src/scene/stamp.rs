@@ -27,7 +27,7 @@ type Site = GeomWithData<[f32; 3], u32>;
 /// index `offset`.
 pub fn nearest_waypoint_stamps(mesh: &Mesh, waypoints: &[Waypoint], offset: usize) -> Vec<u32> {
     let sites: Vec<V3> = waypoints.iter().map(|w| w.pos).collect();
-    let grid = WaypointGrid::new(&sites, surface_area(mesh));
+    let grid = WaypointGrid::new(&sites, mesh.area());
     (0..mesh.triangles.len())
         .into_par_iter()
         .map(|i| {
@@ -44,23 +44,6 @@ fn centroid([a, b, c]: [V3; 3]) -> V3 {
         (a[1] + b[1] + c[1]) / 3.0,
         (a[2] + b[2] + c[2]) / 3.0,
     ]
-}
-
-/// Total area of the mesh's triangles (mm², f64).
-fn surface_area(mesh: &Mesh) -> f64 {
-    (0..mesh.triangles.len())
-        .map(|i| {
-            let [a, b, c] = mesh.corners(i).map(|v| v.map(f64::from));
-            let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-            let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-            let n = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
-            0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
-        })
-        .sum()
 }
 
 /// Squared distance exactly as rstar measures it (f32, x then y then z), so
