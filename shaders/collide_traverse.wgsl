@@ -21,10 +21,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let node = part_node(stack[sp]);
         if node.min_stamp < q.cutoff {
             let c = to_head(q, node.center);
-            let cls = classify(c, node.radius, sphere_margin(q, c, node.radius));
+            let margin = sphere_margin(q, c, node.radius);
+            let cls = classify(c, node.radius, margin);
             if cls < 0 {
                 hit = true;
-            } else if cls == 0 {
+            } else if cls == 0 && !slab_clear(q, node, margin) {
                 if is_leaf(node.packed) {
                     let first = leaf_first(node.packed);
                     let end = first + leaf_count(node.packed);

@@ -35,6 +35,7 @@ fn shared_constants_match_rust() {
         value("STACK_SIZE") as usize,
         maamplan::scene::gpu_types::STACK_SIZE
     );
+    assert_eq!(value("SUPPORT_SIDE"), maamplan::scene::slab::SUPPORT_SIDE);
 }
 
 #[test]
@@ -96,6 +97,7 @@ fn struct_layouts_match_rust() {
         ("far_dims", 144),
         ("far_offset", 156),
         ("far_inv_cell", 160),
+        ("support_offset", 164),
     ];
     for (name, off) in want {
         let got = offsets.iter().find(|(n, _)| n == name).map(|(_, o)| *o);
@@ -135,4 +137,5 @@ fn struct_layouts_match_rust() {
     assert_eq!(&p.grid_dims as *const _ as usize - base, 48);
     assert_eq!(&p.far_dims as *const _ as usize - base, 144);
     assert_eq!(&p.far_inv_cell as *const _ as usize - base, 160);
+    assert_eq!(&p.support_offset as *const _ as usize - base, 164);
 }

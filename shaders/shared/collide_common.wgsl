@@ -37,6 +37,8 @@ struct Control {
 @group(0) @binding(15) var<storage, read_write> control: Control;
 
 const STACK_SIZE: u32 = 64u;
+// Cells per cube-map face side of the head's support map (scene/slab.rs).
+const SUPPORT_SIDE: u32 = 32u;
 // Whether tri_crosses_head has the margin's distance tests at all. The host
 // builds collide_exact twice and runs the variant without them on batches
 // whose queries all have margin 0: lavapipe evaluates the body of a branch
@@ -119,6 +121,66 @@ fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
         return -1;
     }
     return 1;
+}
+
+// slab.rs `oct_decode`: the unit vector of an octahedral code.
+fn oct_decode(p: vec2<f32>) -> vec3<f32> {
+    var v = vec3<f32>(p.x, p.y, 1.0 - abs(p.x) - abs(p.y));
+    let t = max(-v.z, 0.0);
+    v.x += select(t, -t, v.x >= 0.0);
+    v.y += select(t, -t, v.y >= 0.0);
+    let inv = 1.0 / sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
+    return vec3<f32>(v.x * inv, v.y * inv, v.z * inv);
+}
+
+// slab.rs `support_cell`: the support map's cell of direction u.
+fn support_cell(u: vec3<f32>) -> u32 {
+    let a = abs(u);
+    var k = 2u;
+    var i = 0u;
+    var j = 1u;
+    if a.x >= a.y && a.x >= a.z {
+        k = 0u;
+        i = 1u;
+        j = 2u;
+    } else if a.y >= a.z {
+        k = 1u;
+        i = 2u;
+        j = 0u;
+    }
+    let face = 2u * k + select(0u, 1u, u[k] < 0.0);
+    let inv = 1.0 / a[k];
+    let n = f32(SUPPORT_SIDE);
+    let s = u32(clamp((u[i] * inv + 1.0) * 0.5 * n, 0.0, n - 1.0));
+    let t = u32(clamp((u[j] * inv + 1.0) * 0.5 * n, 0.0, n - 1.0));
+    return (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s;
+}
+
+// cpu.rs `slab_clear`: the node's slab wholly on one side of the head,
+// farther than margin.
+fn slab_clear(q: Query, node: PartNode, margin: f32) -> bool {
+    let range = unpack2x16snorm(node.slab_range);
+    if range.y - range.x >= 0.5 {
+        return false;
+    }
+    let n = oct_decode(unpack2x16snorm(node.slab_normal));
+    let o = n.x * (node.center.x - q.rows[0].w)
+        + n.y * (node.center.y - q.rows[1].w)
+        + n.z * (node.center.z - q.rows[2].w);
+    let lo = o + range.x * node.radius;
+    let hi = o + range.y * node.radius;
+    let nh = vec3<f32>(
+        q.rows[0].x * n.x + q.rows[0].y * n.y + q.rows[0].z * n.z,
+        q.rows[1].x * n.x + q.rows[1].y * n.y + q.rows[1].z * n.z,
+        q.rows[2].x * n.x + q.rows[2].y * n.y + q.rows[2].z * n.z,
+    );
+    let gap = margin + head.grid_slack;
+    let below = grid[head.support_offset + support_cell(-nh)];
+    if hi + gap < -below {
+        return true;
+    }
+    let above = grid[head.support_offset + support_cell(nh)];
+    return lo - gap > above;
 }
 
 // cpu.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside

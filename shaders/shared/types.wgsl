@@ -22,8 +22,8 @@ struct PartNode {
     packed: u32,
     radius: f32,
     min_stamp: u32,
-    pad0: u32,
-    pad1: u32,
+    slab_normal: u32,
+    slab_range: u32,
 }
 
 struct Query {
@@ -53,9 +53,9 @@ struct HeadParams {
     far_dims: vec3<u32>,
     far_offset: u32,
     far_inv_cell: f32,
+    support_offset: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // Leaf encoding of Node.packed / PartNode.packed (src/scene/gpu_types.rs).

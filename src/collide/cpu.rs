@@ -13,7 +13,10 @@
 //! Each node's bounding sphere is moved into the head frame and classified
 //! with the head's distance grid: wholly outside and farther than the
 //! query's safety margin (skip), wholly inside (a collision: the node holds
-//! a triangle that exists), or unknown (descend). With a slope the margin
+//! a triangle that exists), or unknown; an unknown node whose slab lies
+//! wholly on one side of the head, farther than the margin, is skipped too
+//! ([`slab_clear`], `scene::slab`: flat layers under the nozzle, which
+//! spheres fit badly), else the walk descends. With a slope the margin
 //! grows with distance from the tip: a node is measured at its farthest
 //! point from the tip ([`sphere_margin`]), a triangle at its farthest
 //! corner ([`triangle_margin`]). Leaf triangles get the
@@ -29,6 +32,7 @@ use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::TriPlane;
 use crate::geometry::tri_tri_distance::{plane_separates, tri_tri_closer_than};
 use crate::geometry::{dot, length, sub, vmax, vmin, V3};
+use crate::scene::slab::{oct_decode, support_cell, unpack_snorm2x16};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
 
@@ -252,18 +256,16 @@ pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
             continue;
         }
         let c = to_head(q, node.center);
-        let cls = classify(
-            s.head,
-            s.grid,
-            c,
-            node.radius,
-            sphere_margin(q, c, node.radius),
-        );
+        let margin = sphere_margin(q, c, node.radius);
+        let cls = classify(s.head, s.grid, c, node.radius, margin);
         if cls > 0 {
             continue;
         }
         if cls < 0 {
             return Some(NO_TRIANGLE);
+        }
+        if slab_clear(s.head, s.grid, q, &node, margin) {
+            continue;
         }
         match node.leaf_range() {
             Some((first, count)) => {
@@ -282,6 +284,43 @@ pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
         }
     }
     None
+}
+
+/// Does the node's slab ([`crate::scene::slab`]) lie wholly on one side
+/// of the head, farther than `margin` from it? Slabs thicker than half
+/// the node's radius are not tested.
+#[inline(always)]
+pub fn slab_clear(
+    h: &GpuHeadParams,
+    grid: &[f32],
+    q: &GpuQuery,
+    node: &GpuPartNode,
+    margin: f32,
+) -> bool {
+    let [lo, hi] = unpack_snorm2x16(node.slab_range);
+    if hi - lo >= 0.5 {
+        return false;
+    }
+    let n = oct_decode(unpack_snorm2x16(node.slab_normal));
+    // The node's interval along n from the tip (part frame) ...
+    let o = n[0] * (node.center[0] - q.rows[0][3])
+        + n[1] * (node.center[1] - q.rows[1][3])
+        + n[2] * (node.center[2] - q.rows[2][3]);
+    let lo = o + lo * node.radius;
+    let hi = o + hi * node.radius;
+    // ... and the head's along n in its own frame.
+    let nh = [
+        q.rows[0][0] * n[0] + q.rows[0][1] * n[1] + q.rows[0][2] * n[2],
+        q.rows[1][0] * n[0] + q.rows[1][1] * n[1] + q.rows[1][2] * n[2],
+        q.rows[2][0] * n[0] + q.rows[2][1] * n[1] + q.rows[2][2] * n[2],
+    ];
+    let gap = margin + h.grid_slack;
+    let below = grid[(h.support_offset + support_cell([-nh[0], -nh[1], -nh[2]])) as usize];
+    if hi + gap < -below {
+        return true;
+    }
+    let above = grid[(h.support_offset + support_cell(nh)) as usize];
+    lo - gap > above
 }
 
 /// Does triangle `t` (an earlier query's [`first_hit`]) exist at `q`'s

@@ -187,7 +187,8 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
             packed: n.packed,
             radius: 0.0,
             min_stamp: n.min_stamp,
-            _pad: [0; 2],
+            slab_normal: 0,
+            slab_range: 0,
         })
         .collect();
     // Children before parents: walking back from the last node, since the

@@ -53,8 +53,12 @@ pub struct GpuPartNode {
     pub radius: f32,
     /// Smallest stamp below this node.
     pub min_stamp: u32,
-    /// Padding.
-    pub _pad: [u32; 2],
+    /// The slab's unit normal, octahedral, two snorm16 (`pack2x16snorm`
+    /// order: x in the low half) — see `scene::slab`.
+    pub slab_normal: u32,
+    /// The slab's interval `[lo, hi]` of `n · (x − center)` as fractions
+    /// of `radius`, two snorm16 (lo low), rounded outwards.
+    pub slab_range: u32,
 }
 
 impl GpuPartNode {
@@ -164,8 +168,12 @@ pub struct GpuHeadParams {
     pub far_offset: u32,
     /// `1 / far_cell`.
     pub far_inv_cell: f32,
+    /// Index of the support map's first cell in the grid buffer (after
+    /// the far grid): upper bounds of the head's support function per
+    /// cube-map cell, `scene::slab::SUPPORT_SIDE`² cells a face.
+    pub support_offset: u32,
     /// Padding to 16-byte multiples.
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);

@@ -44,7 +44,9 @@ pub struct Head {
     pub triangles: Vec<GpuTriangle>,
     /// The same triangles in ray space.
     pub ray_triangles: Vec<GpuTriangle>,
-    /// Signed distance per grid cell, x fastest.
+    /// Signed distance per grid cell, x fastest; then the far grid's
+    /// cells and the support map's ([`GpuHeadParams::far_offset`],
+    /// [`GpuHeadParams::support_offset`]).
     pub grid: Vec<f32>,
 }
 
@@ -132,6 +134,8 @@ impl Head {
         });
         let far_offset = grid.len() as u32;
         grid.extend(far_grid(bvh, &aabb, far_origin, far_cell, far_dims));
+        let support_offset = grid.len() as u32;
+        grid.extend(super::slab::support_map(&mesh.vertices));
 
         let params = GpuHeadParams {
             aabb_min: aabb.min,
@@ -152,7 +156,8 @@ impl Head {
             far_dims,
             far_offset,
             far_inv_cell: 1.0 / far_cell,
-            _pad: [0; 3],
+            support_offset,
+            _pad: [0; 2],
         };
         Ok(Head {
             mesh,

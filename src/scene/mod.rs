@@ -7,6 +7,7 @@
 pub mod bvh;
 pub mod gpu_types;
 pub mod head;
+pub mod slab;
 mod stamp;
 
 pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
@@ -223,7 +224,8 @@ impl Scene {
         }
         let part = bvh::build(&soup, 4)?;
         drop(soup);
-        let part_nodes = bvh::sphere_nodes(&part);
+        let mut part_nodes = bvh::sphere_nodes(&part);
+        slab::add_slabs(&part, &mut part_nodes);
         let part_tris = part.triangles;
 
         let mut waypoint_queries = Vec::with_capacity(toolpath.waypoint_count());
