@@ -163,6 +163,43 @@ pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
     }
 }
 
+/// Triangles below each node, children first: walking back from the
+/// last node, since the depth-first layout ([`depth_first`]) stores every
+/// child after its parent.
+pub(crate) fn subtree_counts(nodes: &[GpuNode]) -> Vec<u32> {
+    let mut count = vec![0u32; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        count[i] = match nodes[i].leaf_range() {
+            Some((_, c)) => c,
+            None => {
+                let l = nodes[i].packed as usize;
+                count[l] + count[l + 1]
+            }
+        };
+    }
+    count
+}
+
+/// `f` of every triangle vertex below node `i` (by descent).
+pub(crate) fn for_each_vertex_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut([f32; 3])) {
+    let mut stack = vec![i];
+    while let Some(j) = stack.pop() {
+        match bvh.nodes[j].leaf_range() {
+            Some((first, count)) => {
+                for t in &bvh.triangles[first as usize..(first + count) as usize] {
+                    f(t.v0);
+                    f(t.v1);
+                    f(t.v2);
+                }
+            }
+            None => {
+                let l = bvh.nodes[j].packed as usize;
+                stack.extend([l, l + 1]);
+            }
+        }
+    }
+}
+
 /// Subtrees of at most this many triangles get the exact radius; above,
 /// a node's radius is the tighter of its box's and its children's spheres'
 /// bound (a descent from every node would cost O(n log n) vertex visits).
@@ -191,18 +228,7 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
             slab_range: 0,
         })
         .collect();
-    // Children before parents: walking back from the last node, since the
-    // depth-first layout stores every child after its parent.
-    let mut count = vec![0u32; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        count[i] = match nodes[i].leaf_range() {
-            Some((_, c)) => c,
-            None => {
-                let l = nodes[i].packed as usize;
-                count[l] + count[l + 1]
-            }
-        };
-    }
+    let count = subtree_counts(nodes);
     let round_up = |r2: f64| (r2.sqrt() as f32).next_up();
     // Exact radii of the small subtrees, by descent.
     let exact: Vec<Option<f32>> = (0..nodes.len())
@@ -213,23 +239,10 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
             }
             let c = out[i].center.map(|x| x as f64);
             let mut r2: f64 = 0.0;
-            let mut stack = vec![i];
-            while let Some(j) = stack.pop() {
-                match nodes[j].leaf_range() {
-                    Some((first, count)) => {
-                        for t in &bvh.triangles[first as usize..(first + count) as usize] {
-                            for v in [t.v0, t.v1, t.v2] {
-                                let d: f64 = (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum();
-                                r2 = r2.max(d);
-                            }
-                        }
-                    }
-                    None => {
-                        let l = nodes[j].packed as usize;
-                        stack.extend([l, l + 1]);
-                    }
-                }
-            }
+            for_each_vertex_below(bvh, i, |v| {
+                let d: f64 = (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum();
+                r2 = r2.max(d);
+            });
             Some(round_up(r2))
         })
         .collect();

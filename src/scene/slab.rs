@@ -20,7 +20,7 @@
 //! by one step more than the encoding needs so a GPU's own rounding of
 //! the decode stays inside.
 
-use super::bvh::StampedBvh;
+use super::bvh::{for_each_vertex_below, subtree_counts, StampedBvh};
 use super::gpu_types::GpuPartNode;
 use rayon::prelude::*;
 
@@ -63,17 +63,7 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
         .collect();
     drop(sum);
     let centre = |i: usize| spheres[i].center.map(|x| x as f64);
-    // Triangles below each node.
-    let mut count = vec![0u32; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        count[i] = match nodes[i].leaf_range() {
-            Some((_, c)) => c,
-            None => {
-                let l = nodes[i].packed as usize;
-                count[l] + count[l + 1]
-            }
-        };
-    }
+    let count = subtree_counts(nodes);
     // Exact intervals of n · (x − centre) for small subtrees.
     let exact: Vec<Option<[f64; 2]>> = (0..nodes.len())
         .into_par_iter()
@@ -83,23 +73,10 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
             }
             let (n, c) = (normal[i].1, centre(i));
             let mut r = [f64::INFINITY, f64::NEG_INFINITY];
-            let mut stack = vec![i];
-            while let Some(j) = stack.pop() {
-                match nodes[j].leaf_range() {
-                    Some((first, cnt)) => {
-                        for t in &bvh.triangles[first as usize..(first + cnt) as usize] {
-                            for v in [t.v0, t.v1, t.v2] {
-                                let d = dot(n, sub(v.map(|x| x as f64), c));
-                                r = [r[0].min(d), r[1].max(d)];
-                            }
-                        }
-                    }
-                    None => {
-                        let l = nodes[j].packed as usize;
-                        stack.extend([l, l + 1]);
-                    }
-                }
-            }
+            for_each_vertex_below(bvh, i, |v| {
+                let d = dot(n, sub(v.map(|x| x as f64), c));
+                r = [r[0].min(d), r[1].max(d)];
+            });
             Some(r)
         })
         .collect();
