@@ -4,10 +4,12 @@
 //! This file is the CPU mirror of the `collide_*` kernels (`shaders/`,
 //! helpers in `shaders/shared/collide_common.wgsl`): each function has a
 //! twin of the same name there, with the same operations in the same order,
-//! so the two backends round identically. Two things are the CPU's own:
+//! so the two backends round identically. Three things are the CPU's own:
 //! [`first_hit`] is the kernels' `query_hits` walk naming the triangle that
-//! decided a hit, and each rayon worker first tries the triangles of its
-//! recent hits ([`witness_hits`]) — neither changes a verdict.
+//! decided a hit, each rayon worker first tries the triangles of its
+//! recent hits ([`witness_hits`]), and it walks from the cut of the tree
+//! its last query stopped at (`collide::frontier`) — none changes a
+//! verdict.
 //!
 //! Per query: walk the part BVH, skipping nodes with `min_stamp >= cutoff`.
 //! Each node's bounding sphere is moved into the head frame and classified
@@ -116,11 +118,11 @@ const WITNESSES: usize = 8;
 /// measurable on free runs (`plan simple_curve` paired 0.99) and took the
 /// columns of dome_cut `--keep-normals` from 19.0 s (one) to 8.5 s (four:
 /// 12.1 s).
-struct Witnesses([u32; WITNESSES]);
+struct Witnesses([u32; WITNESSES], super::frontier::Frontier);
 
 impl Default for Witnesses {
     fn default() -> Self {
-        Witnesses([NO_TRIANGLE; WITNESSES])
+        Witnesses([NO_TRIANGLE; WITNESSES], Default::default())
     }
 }
 
@@ -132,7 +134,7 @@ impl Witnesses {
             self.0[..=k].rotate_right(1);
             return true;
         }
-        let hit = first_hit(s, q);
+        let hit = self.1.first_hit(s, q);
         if let Some(t) = hit.filter(|&t| t != NO_TRIANGLE) {
             self.0.rotate_right(1);
             self.0[0] = t;

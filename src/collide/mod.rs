@@ -7,6 +7,7 @@
 
 pub mod brute;
 pub mod cpu;
+mod frontier;
 pub mod gpu;
 pub mod parry;
 pub mod sample;
