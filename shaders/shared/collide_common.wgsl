@@ -159,9 +159,15 @@ fn support_cell(u: vec3<f32>) -> u32 {
 // cpu.rs `slab_clear`: the node's slab wholly on one side of the head,
 // farther than margin.
 fn slab_clear(q: Query, node: PartNode, margin: f32) -> bool {
+    return slab_gap(q, node) - head.grid_slack > margin;
+}
+
+// cpu.rs `slab_gap`: how far the node's slab lies from the head along its
+// normal (-1 for slabs thicker than half the radius).
+fn slab_gap(q: Query, node: PartNode) -> f32 {
     let range = unpack2x16snorm(node.slab_range);
     if range.y - range.x >= 0.5 {
-        return false;
+        return -1.0;
     }
     let n = oct_decode(unpack2x16snorm(node.slab_normal));
     let o = n.x * (node.center.x - q.rows[0].w)
@@ -174,13 +180,9 @@ fn slab_clear(q: Query, node: PartNode, margin: f32) -> bool {
         q.rows[1].x * n.x + q.rows[1].y * n.y + q.rows[1].z * n.z,
         q.rows[2].x * n.x + q.rows[2].y * n.y + q.rows[2].z * n.z,
     );
-    let gap = margin + head.grid_slack;
     let below = grid[head.support_offset + support_cell(-nh)];
-    if hi + gap < -below {
-        return true;
-    }
     let above = grid[head.support_offset + support_cell(nh)];
-    return lo - gap > above;
+    return max(-below - hi, lo - above);
 }
 
 // cpu.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside

@@ -271,11 +271,8 @@ pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
         }
         match node.leaf_range() {
             Some((first, count)) => {
-                for t in first..first + count {
-                    let tri = &s.tris[t as usize];
-                    if tri.stamp < q.cutoff && tri_hits(s, q, tri) {
-                        return Some(t);
-                    }
+                if let Some(t) = leaf_hit(s, q, first, count) {
+                    return Some(t);
                 }
             }
             None => {
@@ -289,8 +286,7 @@ pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
 }
 
 /// Does the node's slab ([`crate::scene::slab`]) lie wholly on one side
-/// of the head, farther than `margin` from it? Slabs thicker than half
-/// the node's radius are not tested.
+/// of the head, farther than `margin` from it?
 #[inline(always)]
 pub fn slab_clear(
     h: &GpuHeadParams,
@@ -299,9 +295,19 @@ pub fn slab_clear(
     node: &GpuPartNode,
     margin: f32,
 ) -> bool {
+    slab_gap(h, grid, q, node) - h.grid_slack > margin
+}
+
+/// How far the node's slab lies from the head along its normal: the gap
+/// between the node's interval of `n · (x − tip)` and the head's
+/// `[−h(−n), h(n)]` (support map, head frame), on whichever side it is
+/// larger; `−1` for slabs thicker than half the node's radius, which are
+/// not tested.
+#[inline(always)]
+pub fn slab_gap(h: &GpuHeadParams, grid: &[f32], q: &GpuQuery, node: &GpuPartNode) -> f32 {
     let [lo, hi] = unpack_snorm2x16(node.slab_range);
     if hi - lo >= 0.5 {
-        return false;
+        return -1.0;
     }
     let n = oct_decode(unpack_snorm2x16(node.slab_normal));
     // The node's interval along n from the tip (part frame) ...
@@ -316,13 +322,19 @@ pub fn slab_clear(
         q.rows[1][0] * n[0] + q.rows[1][1] * n[1] + q.rows[1][2] * n[2],
         q.rows[2][0] * n[0] + q.rows[2][1] * n[1] + q.rows[2][2] * n[2],
     ];
-    let gap = margin + h.grid_slack;
     let below = grid[(h.support_offset + support_cell([-nh[0], -nh[1], -nh[2]])) as usize];
-    if hi + gap < -below {
-        return true;
-    }
     let above = grid[(h.support_offset + support_cell(nh)) as usize];
-    lo - gap > above
+    (-below - hi).max(lo - above)
+}
+
+/// The first triangle of the leaf `first..first + count` that exists at
+/// `q`'s cutoff and hits the head.
+#[inline(always)]
+pub fn leaf_hit(s: &SceneView, q: &GpuQuery, first: u32, count: u32) -> Option<u32> {
+    (first..first + count).find(|&t| {
+        let tri = &s.tris[t as usize];
+        tri.stamp < q.cutoff && tri_hits(s, q, tri)
+    })
 }
 
 /// Does triangle `t` (an earlier query's [`first_hit`]) exist at `q`'s

@@ -22,11 +22,12 @@
 //! 1.3 best, within noise of each other). A hit ends the walk early and
 //! leaves no cut.
 
-use super::cpu::{grid_cell, sphere_margin, to_head, tri_hits, SceneView, NO_TRIANGLE, STACK_SIZE};
+use super::cpu::{
+    grid_cell, leaf_hit, slab_gap, sphere_margin, to_head, SceneView, NO_TRIANGLE, STACK_SIZE,
+};
 use crate::geometry::aabb::point_box_distance;
 use crate::geometry::{length, V3};
-use crate::scene::slab::{oct_decode, support_cell, unpack_snorm2x16};
-use crate::scene::{GpuHeadParams, GpuPartNode, GpuQuery};
+use crate::scene::{GpuHeadParams, GpuQuery};
 
 /// One node of a cut: its index, how far its sphere (or slab) is known
 /// to be from the head (`< 0`: nothing known — walk it again), and the
@@ -183,11 +184,8 @@ fn walk(
         }
         match node.leaf_range() {
             Some((first, count)) => {
-                for t in first..first + count {
-                    let tri = &s.tris[t as usize];
-                    if tri.stamp < q.cutoff && tri_hits(s, q, tri) {
-                        return Some(t);
-                    }
+                if let Some(t) = leaf_hit(s, q, first, count) {
+                    return Some(t);
                 }
                 cut.push(again(i));
             }
@@ -231,31 +229,6 @@ fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f3
         (false, bound)
     }
 }
-
-/// How far the node's slab lies from the head along its normal
-/// ([`super::cpu::slab_clear`]'s two gaps, the larger; `−1` for slabs
-/// that test does not try).
-fn slab_gap(h: &GpuHeadParams, grid: &[f32], q: &GpuQuery, node: &GpuPartNode) -> f32 {
-    let [lo, hi] = unpack_snorm2x16(node.slab_range);
-    if hi - lo >= 0.5 {
-        return -1.0;
-    }
-    let n = oct_decode(unpack_snorm2x16(node.slab_normal));
-    let o = n[0] * (node.center[0] - q.rows[0][3])
-        + n[1] * (node.center[1] - q.rows[1][3])
-        + n[2] * (node.center[2] - q.rows[2][3]);
-    let lo = o + lo * node.radius;
-    let hi = o + hi * node.radius;
-    let nh = [
-        q.rows[0][0] * n[0] + q.rows[0][1] * n[1] + q.rows[0][2] * n[2],
-        q.rows[1][0] * n[0] + q.rows[1][1] * n[1] + q.rows[1][2] * n[2],
-        q.rows[2][0] * n[0] + q.rows[2][1] * n[1] + q.rows[2][2] * n[2],
-    ];
-    let below = grid[(h.support_offset + support_cell([-nh[0], -nh[1], -nh[2]])) as usize];
-    let above = grid[(h.support_offset + support_cell(nh)) as usize];
-    (-below - hi).max(lo - above)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
