@@ -94,7 +94,7 @@ impl Backend for CpuBackend<'_> {
     }
 
     /// Each worker first tries the triangles that decided its recent
-    /// hits (`Witnesses`, [`witness_hits`]): a colliding query otherwise
+    /// hits (`Worker`, [`witness_hits`]): a colliding query otherwise
     /// walks the tree until it meets one, and on the tilted simple_curve
     /// colliding poses cost twice what free ones do.
     fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
@@ -102,7 +102,7 @@ impl Backend for CpuBackend<'_> {
         Ok(queries
             .par_iter()
             .with_min_len(64)
-            .map_init(Witnesses::default, |w, q| w.answer(&self.view, &q.to_gpu()))
+            .map_init(Worker::default, |w, q| w.answer(&self.view, &q.to_gpu()))
             .collect())
     }
 }
@@ -110,34 +110,43 @@ impl Backend for CpuBackend<'_> {
 /// Triangles that decided a worker's recent hits, tried before a walk.
 const WITNESSES: usize = 8;
 
-/// The triangles that decided a worker's recent hits, most recent first
-/// ([`NO_TRIANGLE`]: none yet). A colliding waypoint's variants, the
-/// directions of a shell that all collide, a move's failing samples: the
-/// planner asks neighbouring poses in a row, and they mostly hit one of
-/// the few triangles the last hits did. Trying eight cost nothing
-/// measurable on free runs (`plan simple_curve` paired 0.99) and took the
-/// columns of dome_cut `--keep-normals` from 19.0 s (one) to 8.5 s (four:
-/// 12.1 s).
-struct Witnesses([u32; WITNESSES], super::frontier::Frontier);
+/// What a rayon worker keeps between its queries.
+struct Worker {
+    /// The triangles that decided its recent hits, most recent first
+    /// ([`NO_TRIANGLE`]: none yet). A colliding waypoint's variants, the
+    /// directions of a shell that all collide, a move's failing samples:
+    /// the planner asks neighbouring poses in a row, and they mostly hit
+    /// one of the few triangles the last hits did. Trying eight cost
+    /// nothing measurable on free runs (`plan simple_curve` paired 0.99)
+    /// and took the columns of dome_cut `--keep-normals` from 19.0 s (one)
+    /// to 8.5 s (four: 12.1 s).
+    witnesses: [u32; WITNESSES],
+    /// The cut of the tree its last walk stopped at (`collide::frontier`).
+    cut: super::frontier::Frontier,
+}
 
-impl Default for Witnesses {
+impl Default for Worker {
     fn default() -> Self {
-        Witnesses([NO_TRIANGLE; WITNESSES], Default::default())
+        Worker {
+            witnesses: [NO_TRIANGLE; WITNESSES],
+            cut: Default::default(),
+        }
     }
 }
 
-impl Witnesses {
-    /// [`query_hits`] for `q`, trying the witnesses first; a triangle that
-    /// decides a hit moves to the front.
+impl Worker {
+    /// [`query_hits`] for `q`, trying the witnesses first (a triangle that
+    /// decides a hit moves to the front), then walking from the last cut.
     fn answer(&mut self, s: &SceneView, q: &GpuQuery) -> bool {
-        if let Some(k) = (0..WITNESSES).find(|&k| witness_hits(s, q, self.0[k])) {
-            self.0[..=k].rotate_right(1);
+        let w = &mut self.witnesses;
+        if let Some(k) = (0..WITNESSES).find(|&k| witness_hits(s, q, w[k])) {
+            w[..=k].rotate_right(1);
             return true;
         }
-        let hit = self.1.first_hit(s, q);
+        let hit = self.cut.first_hit(s, q);
         if let Some(t) = hit.filter(|&t| t != NO_TRIANGLE) {
-            self.0.rotate_right(1);
-            self.0[0] = t;
+            w.rotate_right(1);
+            w[0] = t;
         }
         hit.is_some()
     }

@@ -160,25 +160,21 @@ fn walk(
         }
         let c = to_head(q, node.center);
         let margin = sphere_margin(q, c, node.radius);
-        let reach = length(c) + node.radius;
         let (inside, clear) = sphere_clearance(s.head, s.grid, c, node.radius);
         if inside {
             return Some(NO_TRIANGLE);
         }
+        // Clear by its sphere, else by its slab: the cut keeps how far.
+        let clear = if clear - s.head.grid_slack > margin {
+            clear
+        } else {
+            slab_gap(s.head, s.grid, q, &node)
+        };
         if clear - s.head.grid_slack > margin {
             cut.push(Cut {
                 node: i,
                 clear,
-                reach,
-            });
-            continue;
-        }
-        let gap = slab_gap(s.head, s.grid, q, &node);
-        if gap - s.head.grid_slack > margin {
-            cut.push(Cut {
-                node: i,
-                clear: gap,
-                reach,
+                reach: length(c) + node.radius,
             });
             continue;
         }
@@ -229,6 +225,7 @@ fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f3
         (false, bound)
     }
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -35,8 +35,9 @@ const EXACT_SLAB_TRIS: u32 = 64;
 /// gives them: the same tree as `bvh`). Linear in the tree: a node's
 /// normal is its children's area-weighted normals added with their
 /// signs aligned (the data set's layers alternate their winding), and
-/// its interval is exact over a leaf's vertices and, above, the tighter
-/// of its box's and its children's slabs' ([`child_interval`]).
+/// its interval is exact over the vertices of subtrees of at most
+/// [`EXACT_SLAB_TRIS`] triangles and, above, the tighter of its box's and
+/// its children's slabs' ([`child_interval`]).
 pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
     let nodes = &bvh.nodes;
     // Normals, children first (the depth-first layout stores every child
@@ -98,17 +99,11 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
                 let half: f64 = (0..3)
                     .map(|k| n[k].abs() * 0.5 * (b.max[k] as f64 - b.min[k] as f64))
                     .sum();
+                let child = |j: usize| {
+                    child_interval(n, c, normal[j].1, centre(j), range[j], spheres[j].radius)
+                };
                 let l = b.packed as usize;
-                let [l0, l1] =
-                    child_interval(n, c, normal[l].1, centre(l), range[l], spheres[l].radius);
-                let [r0, r1] = child_interval(
-                    n,
-                    c,
-                    normal[l + 1].1,
-                    centre(l + 1),
-                    range[l + 1],
-                    spheres[l + 1].radius,
-                );
+                let ([l0, l1], [r0, r1]) = (child(l), child(l + 1));
                 [(mid - half).max(l0.min(r0)), (mid + half).min(l1.max(r1))]
             }
         };
