@@ -468,3 +468,134 @@ fn slabs_skip_only_material_clear_of_the_head() {
         "{settled} nodes, {checked} triangles"
     );
 }
+
+#[test]
+fn hull_planes_settle_only_material_clear_of_the_head() {
+    // simple_curve with every nozzle tilted 50° about x: the head's flank
+    // lies a few tenths of a millimetre over the layers, where a
+    // triangle's bounding sphere reaches into the head but the hull plane
+    // facing it (`hull_clear`) does not. Walk the tree as the backends
+    // do; wherever a leaf triangle's sphere cannot be settled and its
+    // plane can, brute force in f64 must find it farther than the margin
+    // from every head triangle. And the planes must settle nearly every
+    // such triangle that brute force finds clear with room to spare.
+    use maamplan::collide::brute::{tri_tri_distance64, winding_number};
+    use maamplan::collide::cpu::{
+        classify, hull_clear, slab_clear, sphere_margin, to_head, triangle_margin, SceneView,
+    };
+    let d = data();
+    let job = maamplan::job::Job::load(&maamplan::job::JobSpec {
+        toolpath: Some(d.join("simple_curve")),
+        head: Some(d.join("extruderHead.obj")),
+        platform: Some(d.join("printingPlatform.obj")),
+        placement: maamplan::io::Placement {
+            y_up: false,
+            offset: [0.0, 0.0, 40.5],
+        },
+        clearance: 0.3,
+        tilt_deg: Some(50.0),
+        ..Default::default()
+    })
+    .unwrap();
+    let scene = &job.scene;
+    let view = SceneView::new(scene);
+    let head: Vec<[[f64; 3]; 3]> = scene
+        .head
+        .triangles
+        .iter()
+        .map(|t| [t.v0, t.v1, t.v2].map(|v| v.map(|x| x as f64)))
+        .collect();
+    let bounds = |t: &[[f64; 3]; 3]| -> [[f64; 2]; 3] {
+        std::array::from_fn(|k| {
+            let v = [t[0][k], t[1][k], t[2][k]];
+            [
+                v.iter().copied().fold(f64::INFINITY, f64::min),
+                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+            ]
+        })
+    };
+    let head_boxes: Vec<_> = head.iter().map(bounds).collect();
+    let (mut planes, mut well_clear) = (0usize, 0usize);
+    for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(211) {
+        // The margins and slopes the planner's proofs ask.
+        let (margin, slope) = [(0.05, 0.0), (0.2, 0.0), (0.15, 0.01)][k % 3];
+        let q = Query {
+            margin,
+            slope,
+            ..*base
+        }
+        .to_gpu();
+        let to_head64 = |p: [f32; 3]| -> [f64; 3] {
+            let d: [f64; 3] = std::array::from_fn(|k| p[k] as f64 - q.rows[k][3] as f64);
+            std::array::from_fn(|i| (0..3).map(|j| q.rows[i][j] as f64 * d[j]).sum())
+        };
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = scene.part_nodes[i];
+            if node.min_stamp >= q.cutoff {
+                continue;
+            }
+            let c = to_head(&q, node.center);
+            let m = sphere_margin(&q, c, node.radius);
+            if classify(view.head, view.grid, c, node.radius, m) != 0
+                || slab_clear(view.head, view.grid, &q, &node, m)
+            {
+                continue;
+            }
+            let Some((first, count)) = node.leaf_range() else {
+                stack.extend([node.packed as usize, node.packed as usize + 1]);
+                continue;
+            };
+            for t in &scene.part_tris[first as usize..(first + count) as usize] {
+                if t.stamp >= q.cutoff {
+                    continue;
+                }
+                let [a, b, c] = [t.v0, t.v1, t.v2].map(|v| to_head(&q, v));
+                let mid: [f32; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) * (1.0 / 3.0));
+                let r = [a, b, c]
+                    .iter()
+                    .map(|v| (0..3).map(|i| (v[i] - mid[i]).powi(2)).sum::<f32>().sqrt())
+                    .fold(0.0f32, f32::max);
+                let tm = triangle_margin(&q, a, b, c);
+                if classify(view.head, view.grid, mid, r, tm) != 0 {
+                    continue;
+                }
+                let settled = hull_clear(view.head, view.grid, mid, [a, b, c], tm);
+                // Brute force in f64: what the query asks of this
+                // triangle, and whether every head triangle keeps it (and
+                // keeps it with 0.1 mm to spare).
+                let tri = [t.v0, t.v1, t.v2].map(to_head64);
+                let reach = tri
+                    .iter()
+                    .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+                    .fold(0.0, f64::max);
+                let need = margin as f64 + slope as f64 * reach;
+                let spare = need + 0.1;
+                let tb = bounds(&tri);
+                let mut near = f64::INFINITY;
+                for (h, hb) in head.iter().zip(&head_boxes) {
+                    if (0..3).any(|k| tb[k][0] - hb[k][1] > spare || hb[k][0] - tb[k][1] > spare) {
+                        continue;
+                    }
+                    near = near.min(tri_tri_distance64(&tri, h));
+                }
+                if settled {
+                    assert!(
+                        near > need && winding_number(&scene.head.mesh, a) < 0.5,
+                        "pose {k}: a triangle {near} mm from the head settled at {need}"
+                    );
+                }
+                // Wholly inside the head is no clearance at all.
+                let contained = || winding_number(&scene.head.mesh, a) > 0.5;
+                if near > spare && !contained() {
+                    well_clear += 1;
+                    planes += settled as usize;
+                }
+            }
+        }
+    }
+    assert!(
+        well_clear > 20_000 && planes * 100 >= well_clear * 99,
+        "planes settled {planes} of {well_clear} triangles clear by 0.1 mm more than asked"
+    );
+}

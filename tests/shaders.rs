@@ -98,6 +98,11 @@ fn struct_layouts_match_rust() {
         ("far_offset", 156),
         ("far_inv_cell", 160),
         ("support_offset", 164),
+        ("plane_offset", 168),
+        ("plane_inv_cell", 172),
+        ("plane_origin", 176),
+        ("plane_cell", 188),
+        ("plane_dims", 192),
     ];
     for (name, off) in want {
         let got = offsets.iter().find(|(n, _)| n == name).map(|(_, o)| *o);
@@ -138,4 +143,7 @@ fn struct_layouts_match_rust() {
     assert_eq!(&p.far_dims as *const _ as usize - base, 144);
     assert_eq!(&p.far_inv_cell as *const _ as usize - base, 160);
     assert_eq!(&p.support_offset as *const _ as usize - base, 164);
+    assert_eq!(&p.plane_offset as *const _ as usize - base, 168);
+    assert_eq!(&p.plane_origin as *const _ as usize - base, 176);
+    assert_eq!(&p.plane_dims as *const _ as usize - base, 192);
 }

@@ -313,9 +313,9 @@ fn triangle_margin(q: Query, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
     return q.margin;
 }
 
-// The triangle in the head frame, the margin it must keep and its bounding
-// sphere's classification (1 outside, -1 inside, 0 undecided); the first
-// half of cpu.rs `tri_hits`.
+// The triangle in the head frame, the margin it must keep and its
+// classification by bounding sphere, then hull plane (1 outside, -1
+// inside, 0 undecided); the first half of cpu.rs `tri_hits`.
 struct HeadTri {
     a: vec3<f32>,
     b: vec3<f32>,
@@ -332,7 +332,24 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
     let m = (a + b + c) * third;
     let r = max(max(len3(a - m), len3(b - m)), len3(c - m));
     let margin = triangle_margin(q, a, b, c);
-    return HeadTri(a, b, c, margin, classify(m, r, margin));
+    var cls = classify(m, r, margin);
+    if cls == 0 && hull_clear(m, a, b, c, margin) {
+        cls = 1;
+    }
+    return HeadTri(a, b, c, margin, cls);
+}
+
+// cpu.rs `hull_clear`: the triangle farther than margin from the head,
+// beyond the hull plane of the cell holding its centroid m.
+fn hull_clear(m: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
+    let cell = grid_cell(m, head.plane_origin, head.plane_inv_cell, head.plane_dims);
+    if cell.w == 0u {
+        return false;
+    }
+    let k = head.plane_offset + 4u * ((cell.z * head.plane_dims.y + cell.y) * head.plane_dims.x + cell.x);
+    let n = vec3<f32>(grid[k], grid[k + 1u], grid[k + 2u]);
+    let near = min(min(dot3(n, a), dot3(n, b)), dot3(n, c));
+    return near - grid[k + 3u] - head.grid_slack > margin;
 }
 
 // The exact half of cpu.rs `tri_hits` (`tri_hits_exact`), for an undecided

@@ -54,8 +54,12 @@ struct HeadParams {
     far_offset: u32,
     far_inv_cell: f32,
     support_offset: u32,
-    _pad0: u32,
-    _pad1: u32,
+    plane_offset: u32,
+    plane_inv_cell: f32,
+    plane_origin: vec3<f32>,
+    plane_cell: f32,
+    plane_dims: vec3<u32>,
+    _pad: u32,
 }
 
 // Leaf encoding of Node.packed / PartNode.packed (src/scene/gpu_types.rs).

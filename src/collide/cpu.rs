@@ -22,7 +22,8 @@
 //! grows with distance from the tip: a node is measured at its farthest
 //! point from the tip ([`sphere_margin`]), a triangle at its farthest
 //! corner ([`triangle_margin`]). Leaf triangles get the
-//! same classification, then the exact tests: Möller against the head
+//! same classification and, if it cannot tell, the head hull's plane
+//! facing them ([`hull_clear`]), then the exact tests: Möller against the head
 //! triangles its box touches and, with a positive margin, the distance to
 //! the head triangles whose boxes lie within the margin (one walk); when
 //! nothing crosses or comes near, containment of one vertex (grid first,
@@ -379,7 +380,29 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
     if cls != 0 {
         return cls < 0;
     }
+    if hull_clear(s.head, s.grid, m, [a, b, c], margin) {
+        return false;
+    }
     tri_hits_exact(s, a, b, c, margin)
+}
+
+/// Does the triangle `abc` (head frame, centroid `m`) lie farther than
+/// `margin` from the head, beyond the hull plane of the cell holding `m`
+/// (`scene::hull_plane`: every point `x` is at least `n · x − h` from the
+/// head's hull, and a triangle is as far as its nearest corner)? Three
+/// dot products instead of the exact tests: beside a tilted head's flank
+/// the grid's sphere around a triangle reaches into the head, the plane
+/// does not.
+#[inline(always)]
+pub fn hull_clear(h: &GpuHeadParams, grid: &[f32], m: V3, [a, b, c]: [V3; 3], margin: f32) -> bool {
+    let Some([ix, iy, iz]) = grid_cell(m, h.plane_origin, h.plane_inv_cell, h.plane_dims) else {
+        return false;
+    };
+    let [nx, ny, _] = h.plane_dims;
+    let k = (h.plane_offset + 4 * ((iz * ny + iy) * nx + ix)) as usize;
+    let n = [grid[k], grid[k + 1], grid[k + 2]];
+    let near = dot(n, a).min(dot(n, b)).min(dot(n, c));
+    near - grid[k + 3] - h.grid_slack > margin
 }
 
 /// The margin everything inside the sphere `(c, r)` (head frame) must at

@@ -124,7 +124,7 @@ pub struct GpuQuery {
     pub _pad: u32,
 }
 
-/// The head's scalar parameters, 176 bytes.
+/// The head's scalar parameters, 208 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuHeadParams {
@@ -172,12 +172,23 @@ pub struct GpuHeadParams {
     /// the far grid): upper bounds of the head's support function per
     /// cube-map cell, `scene::slab::SUPPORT_SIDE`² cells a face.
     pub support_offset: u32,
+    /// Index of the hull planes' first cell in the grid buffer (after the
+    /// support map): four floats a cell, `n` and `h` (`scene::hull_plane`).
+    pub plane_offset: u32,
+    /// `1 / plane_cell`.
+    pub plane_inv_cell: f32,
+    /// Hull-plane grid origin (corner of its cell 0).
+    pub plane_origin: [f32; 3],
+    /// Hull-plane grid cell size (mm).
+    pub plane_cell: f32,
+    /// Hull-plane grid cell counts along x, y, z.
+    pub plane_dims: [u32; 3],
     /// Padding to 16-byte multiples.
-    pub _pad: [u32; 2],
+    pub _pad: u32,
 }
 
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuPartNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuQuery>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 176);
+const _: () = assert!(std::mem::size_of::<GpuHeadParams>() == 208);

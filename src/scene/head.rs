@@ -24,10 +24,11 @@
 
 use super::bvh::{self, StampedBvh};
 use super::gpu_types::{GpuHeadParams, GpuNode, GpuTriangle};
+use super::hull_plane;
 use super::SceneError;
 use crate::geometry::aabb::point_box_distance;
-use crate::geometry::point_in_mesh::{ray_frame, to_ray_space};
-use crate::geometry::point_triangle_distance::point_triangle_distance;
+use crate::geometry::point_in_mesh::{contains_brute, ray_frame, to_ray_space};
+use crate::geometry::point_triangle_distance::{closest_point, point_triangle_distance};
 use crate::geometry::{Aabb, Mesh, V3};
 use rayon::prelude::*;
 
@@ -45,8 +46,9 @@ pub struct Head {
     /// The same triangles in ray space.
     pub ray_triangles: Vec<GpuTriangle>,
     /// Signed distance per grid cell, x fastest; then the far grid's
-    /// cells and the support map's ([`GpuHeadParams::far_offset`],
-    /// [`GpuHeadParams::support_offset`]).
+    /// cells, the support map's and the hull planes'
+    /// ([`GpuHeadParams::far_offset`], [`GpuHeadParams::support_offset`],
+    /// [`GpuHeadParams::plane_offset`]).
     pub grid: Vec<f32>,
 }
 
@@ -136,6 +138,23 @@ impl Head {
         grid.extend(far_grid(bvh, &aabb, far_origin, far_cell, far_dims));
         let support_offset = grid.len() as u32;
         grid.extend(super::slab::support_map(&mesh.vertices));
+        let plane_offset = grid.len() as u32;
+        let (plane_origin, plane_cell, plane_dims) = hull_plane::plane_grid(origin, cell, dims);
+        // Exact containment (ray parity, as the evaluators decide it).
+        let ray_verts: Vec<V3> = mesh
+            .vertices
+            .iter()
+            .map(|v| to_ray_space(&frame, *v))
+            .collect();
+        let inside =
+            |p: [f32; 3]| contains_brute(&ray_verts, &mesh.triangles, to_ray_space(&frame, p));
+        let planes = hull_plane::hull_planes(
+            (&nodes, &triangles),
+            &mesh.vertices,
+            (plane_origin, plane_cell, plane_dims),
+            inside,
+        );
+        grid.extend(planes);
 
         let params = GpuHeadParams {
             aabb_min: aabb.min,
@@ -157,7 +176,12 @@ impl Head {
             far_offset,
             far_inv_cell: 1.0 / far_cell,
             support_offset,
-            _pad: [0; 2],
+            plane_offset,
+            plane_inv_cell: 1.0 / plane_cell,
+            plane_origin,
+            plane_cell,
+            plane_dims,
+            _pad: 0,
         };
         Ok(Head {
             mesh,
@@ -179,7 +203,7 @@ impl Head {
 }
 
 /// The head BVH's nodes and its triangles in leaf order.
-type HeadBvh<'a> = (&'a [GpuNode], &'a [GpuTriangle]);
+pub(crate) type HeadBvh<'a> = (&'a [GpuNode], &'a [GpuTriangle]);
 
 /// Signed distances at cell centres, capped at `band`: exact distances in a
 /// band around each triangle, signs from vertical ray parity per column.
@@ -342,28 +366,41 @@ fn far_grid(bvh: HeadBvh, aabb: &Aabb, origin: V3, cell: f32, dims: [u32; 3]) ->
 /// Distance from `p` to the nearest head triangle: the BVH walked nearer
 /// child first, subtrees pruned by their box's distance (in f32, so with
 /// 1e-4 mm to spare).
-fn nearest_distance((nodes, tris): HeadBvh, p: [f64; 3]) -> f64 {
+fn nearest_distance(bvh: HeadBvh, p: [f64; 3]) -> f64 {
+    nearest_point(bvh, p).0
+}
+
+/// [`nearest_distance`] and the nearest point of the head's surface.
+pub(crate) fn nearest_point(bvh: HeadBvh, p: [f64; 3]) -> (f64, [f64; 3]) {
+    let (d, q, _) = nearest_on(bvh, p);
+    (d, q)
+}
+
+/// [`nearest_point`] and the triangle it lies on (index into the BVH's
+/// triangles).
+pub(crate) fn nearest_on((nodes, tris): HeadBvh, p: [f64; 3]) -> (f64, [f64; 3], usize) {
     let pf = p.map(|x| x as f32);
     let box_distance = |n: u32| {
         let node = &nodes[n as usize];
         point_box_distance(pf, node.min, node.max) as f64 - 1e-4
     };
     let f64v = |v: V3| v.map(|x| x as f64);
-    let mut best = f64::INFINITY;
+    let mut best = (f64::INFINITY, p, 0);
     let mut stack = vec![0u32];
     while let Some(n) = stack.pop() {
-        if box_distance(n) >= best {
+        if box_distance(n) >= best.0 {
             continue;
         }
         match nodes[n as usize].leaf_range() {
             Some((first, count)) => {
-                for t in &tris[first as usize..(first + count) as usize] {
-                    best = best.min(point_triangle_distance(
-                        p,
-                        f64v(t.v0),
-                        f64v(t.v1),
-                        f64v(t.v2),
-                    ));
+                let first = first as usize;
+                for (i, t) in tris.iter().enumerate().skip(first).take(count as usize) {
+                    let q = closest_point(p, f64v(t.v0), f64v(t.v1), f64v(t.v2));
+                    let d = sub64(p, q);
+                    let d = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    if d < best.0 {
+                        best = (d, q, i);
+                    }
                 }
             }
             None => {

@@ -7,6 +7,7 @@
 pub mod bvh;
 pub mod gpu_types;
 pub mod head;
+pub mod hull_plane;
 pub mod slab;
 mod stamp;
 
