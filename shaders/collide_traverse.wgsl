@@ -25,7 +25,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             let cls = classify(c, node.radius, margin);
             if cls < 0 {
                 hit = true;
-            } else if cls == 0 && !slab_clear(q, node, margin) {
+            } else if cls == 0 && !slab_clear(q, node, margin) && !node_hull_clear(q, node, c, margin) {
                 if is_leaf(node.packed) {
                     let first = leaf_first(node.packed);
                     let end = first + leaf_count(node.packed);

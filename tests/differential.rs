@@ -469,22 +469,11 @@ fn slabs_skip_only_material_clear_of_the_head() {
     );
 }
 
-#[test]
-fn hull_planes_settle_only_material_clear_of_the_head() {
-    // simple_curve with every nozzle tilted 50° about x: the head's flank
-    // lies a few tenths of a millimetre over the layers, where a
-    // triangle's bounding sphere reaches into the head but the hull plane
-    // facing it (`hull_clear`) does not. Walk the tree as the backends
-    // do; wherever a leaf triangle's sphere cannot be settled and its
-    // plane can, brute force in f64 must find it farther than the margin
-    // from every head triangle. And the planes must settle nearly every
-    // such triangle that brute force finds clear with room to spare.
-    use maamplan::collide::brute::{tri_tri_distance64, winding_number};
-    use maamplan::collide::cpu::{
-        classify, hull_clear, slab_clear, sphere_margin, to_head, triangle_margin, SceneView,
-    };
+/// simple_curve with every nozzle tilted 50° about x: the head's flank
+/// lies a few tenths of a millimetre over the layers.
+fn tilted_simple_curve() -> maamplan::job::Job {
     let d = data();
-    let job = maamplan::job::Job::load(&maamplan::job::JobSpec {
+    maamplan::job::Job::load(&maamplan::job::JobSpec {
         toolpath: Some(d.join("simple_curve")),
         head: Some(d.join("extruderHead.obj")),
         platform: Some(d.join("printingPlatform.obj")),
@@ -496,25 +485,154 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
         tilt_deg: Some(50.0),
         ..Default::default()
     })
-    .unwrap();
-    let scene = &job.scene;
-    let view = SceneView::new(scene);
+    .unwrap()
+}
+
+/// The head's triangles in f64 and their boxes.
+type Boxes = Vec<[[f64; 2]; 3]>;
+
+fn f64_head(scene: &Scene) -> (Vec<[[f64; 3]; 3]>, Boxes) {
     let head: Vec<[[f64; 3]; 3]> = scene
         .head
         .triangles
         .iter()
         .map(|t| [t.v0, t.v1, t.v2].map(|v| v.map(|x| x as f64)))
         .collect();
-    let bounds = |t: &[[f64; 3]; 3]| -> [[f64; 2]; 3] {
-        std::array::from_fn(|k| {
-            let v = [t[0][k], t[1][k], t[2][k]];
-            [
-                v.iter().copied().fold(f64::INFINITY, f64::min),
-                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            ]
-        })
+    let boxes = head.iter().map(bounds64).collect();
+    (head, boxes)
+}
+
+/// A triangle's box, per axis `[min, max]`.
+fn bounds64(t: &[[f64; 3]; 3]) -> [[f64; 2]; 3] {
+    std::array::from_fn(|k| {
+        let v = [t[0][k], t[1][k], t[2][k]];
+        [
+            v.iter().copied().fold(f64::INFINITY, f64::min),
+            v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        ]
+    })
+}
+
+/// The nearest head triangle's distance from `tri` (head frame, f64) when
+/// it is within `within`; infinity otherwise.
+fn head_distance64(
+    tri: &[[f64; 3]; 3],
+    (head, boxes): &(Vec<[[f64; 3]; 3]>, Boxes),
+    within: f64,
+) -> f64 {
+    use maamplan::collide::brute::tri_tri_distance64;
+    let tb = bounds64(tri);
+    let mut near = f64::INFINITY;
+    for (h, hb) in head.iter().zip(boxes) {
+        if (0..3).any(|k| tb[k][0] - hb[k][1] > within || hb[k][0] - tb[k][1] > within) {
+            continue;
+        }
+        near = near.min(tri_tri_distance64(tri, h));
+    }
+    near
+}
+
+#[test]
+fn node_hull_planes_settle_only_material_clear_of_the_head() {
+    // Walk the tilted simple_curve's tree as the backends do; wherever a
+    // node's sphere and slab cannot settle it but its slab against the
+    // hull plane facing it can (`node_hull_clear`), brute force in f64
+    // must find every existing triangle below it farther than its margin
+    // from every head triangle. And the test must be what settles many
+    // such nodes: flat layers beside the flank.
+    use maamplan::collide::brute::winding_number;
+    use maamplan::collide::cpu::{
+        classify, node_hull_clear, slab_clear, sphere_margin, to_head, SceneView,
     };
-    let head_boxes: Vec<_> = head.iter().map(bounds).collect();
+    let job = tilted_simple_curve();
+    let scene = &job.scene;
+    let view = SceneView::new(scene);
+    let head = f64_head(scene);
+    let (mut settled, mut checked) = (0usize, 0usize);
+    for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(1499) {
+        let (margin, slope) = [(0.05, 0.0), (0.2, 0.0), (0.15, 0.01)][k % 3];
+        let q = Query {
+            margin,
+            slope,
+            ..*base
+        }
+        .to_gpu();
+        let to_head64 = |p: [f32; 3]| -> [f64; 3] {
+            let d: [f64; 3] = std::array::from_fn(|k| p[k] as f64 - q.rows[k][3] as f64);
+            std::array::from_fn(|i| (0..3).map(|j| q.rows[i][j] as f64 * d[j]).sum())
+        };
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = scene.part_nodes[i];
+            if node.min_stamp >= q.cutoff {
+                continue;
+            }
+            let c = to_head(&q, node.center);
+            let m = sphere_margin(&q, c, node.radius);
+            if classify(view.head, view.grid, c, node.radius, m) != 0
+                || slab_clear(view.head, view.grid, &q, &node, m)
+            {
+                continue;
+            }
+            if node_hull_clear(view.head, view.grid, &q, &node, c, m) {
+                settled += 1;
+                let mut below = vec![i];
+                while let Some(j) = below.pop() {
+                    let n = scene.part_nodes[j];
+                    let Some((first, count)) = n.leaf_range() else {
+                        below.extend([n.packed as usize, n.packed as usize + 1]);
+                        continue;
+                    };
+                    for t in &scene.part_tris[first as usize..(first + count) as usize] {
+                        if t.stamp >= q.cutoff {
+                            continue;
+                        }
+                        let tri = [t.v0, t.v1, t.v2].map(to_head64);
+                        let reach = tri
+                            .iter()
+                            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+                            .fold(0.0, f64::max);
+                        let need = margin as f64 + slope as f64 * reach;
+                        let near = head_distance64(&tri, &head, need);
+                        let a = [t.v0, t.v1, t.v2].map(|v| to_head(&q, v))[0];
+                        assert!(
+                            near > need && winding_number(&scene.head.mesh, a) < 0.5,
+                            "pose {k}, node {i}: a triangle {near} mm from the head settled at {need}"
+                        );
+                        checked += 1;
+                    }
+                }
+                continue;
+            }
+            if node.leaf_range().is_none() {
+                stack.extend([node.packed as usize, node.packed as usize + 1]);
+            }
+        }
+    }
+    assert!(
+        settled > 2_000 && checked > 100_000,
+        "{settled} nodes, {checked} triangles"
+    );
+}
+
+#[test]
+fn hull_planes_settle_only_material_clear_of_the_head() {
+    // simple_curve with every nozzle tilted 50° about x: the head's flank
+    // lies a few tenths of a millimetre over the layers, where a
+    // triangle's bounding sphere reaches into the head but the hull plane
+    // facing it (`hull_clear`) does not. Walk the tree as the backends
+    // do; wherever a leaf triangle's sphere cannot be settled and its
+    // plane can, brute force in f64 must find it farther than the margin
+    // from every head triangle. And the planes must settle nearly every
+    // such triangle that brute force finds clear with room to spare.
+    use maamplan::collide::brute::winding_number;
+    use maamplan::collide::cpu::{
+        classify, hull_clear, slab_clear, sphere_margin, to_head, triangle_margin, SceneView,
+    };
+    let job = tilted_simple_curve();
+    let scene = &job.scene;
+    let view = SceneView::new(scene);
+    let head = f64_head(scene);
     let (mut planes, mut well_clear) = (0usize, 0usize);
     for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(211) {
         // The margins and slopes the planner's proofs ask.
@@ -571,14 +689,7 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
                     .fold(0.0, f64::max);
                 let need = margin as f64 + slope as f64 * reach;
                 let spare = need + 0.1;
-                let tb = bounds(&tri);
-                let mut near = f64::INFINITY;
-                for (h, hb) in head.iter().zip(&head_boxes) {
-                    if (0..3).any(|k| tb[k][0] - hb[k][1] > spare || hb[k][0] - tb[k][1] > spare) {
-                        continue;
-                    }
-                    near = near.min(tri_tri_distance64(&tri, h));
-                }
+                let near = head_distance64(&tri, &head, spare);
                 if settled {
                     assert!(
                         near > need && winding_number(&scene.head.mesh, a) < 0.5,

@@ -185,6 +185,36 @@ fn slab_gap(q: Query, node: PartNode) -> f32 {
     return max(-below - hi, lo - above);
 }
 
+// cpu.rs `node_hull_clear`: the node farther than margin from the head,
+// beyond the hull plane of the cell holding its centre c (head frame).
+fn node_hull_clear(q: Query, node: PartNode, c: vec3<f32>, margin: f32) -> bool {
+    return node_hull_gap(q, node, c) - head.grid_slack > margin;
+}
+
+// cpu.rs `node_hull_gap`: the least n·x − h over the node's sphere within
+// its slab, for the hull plane (n, h) of the cell holding c.
+fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
+    let cell = grid_cell(c, head.plane_origin, head.plane_inv_cell, head.plane_dims);
+    if cell.w == 0u {
+        return -1.0;
+    }
+    let k = head.plane_offset + 4u * ((cell.z * head.plane_dims.y + cell.y) * head.plane_dims.x + cell.x);
+    let n = vec3<f32>(grid[k], grid[k + 1u], grid[k + 2u]);
+    let m = oct_decode(unpack2x16snorm(node.slab_normal));
+    let mh = vec3<f32>(
+        q.rows[0].x * m.x + q.rows[0].y * m.y + q.rows[0].z * m.z,
+        q.rows[1].x * m.x + q.rows[1].y * m.y + q.rows[1].z * m.z,
+        q.rows[2].x * m.x + q.rows[2].y * m.y + q.rows[2].z * m.z,
+    );
+    let range = unpack2x16snorm(node.slab_range);
+    let r = node.radius;
+    let alpha = clamp(dot3(n, mh), -1.0, 1.0);
+    let beta = sqrt(1.0 - alpha * alpha + 1e-6);
+    let a = clamp(-alpha * r, range.x * r, range.y * r);
+    let least = alpha * a - beta * sqrt(max(r * r - a * a, 0.0));
+    return dot3(n, c) + least - grid[k + 3u] - 1e-5 * r;
+}
+
 // cpu.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside
 // the grid.
 fn grid_cell(c: vec3<f32>, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> vec4<u32> {

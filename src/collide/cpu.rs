@@ -18,7 +18,9 @@
 //! a triangle that exists), or unknown; an unknown node whose slab lies
 //! wholly on one side of the head, farther than the margin, is skipped too
 //! ([`slab_clear`], `scene::slab`: flat layers under the nozzle, which
-//! spheres fit badly), else the walk descends. With a slope the margin
+//! spheres fit badly), and so is one whose sphere and slab together lie
+//! beyond the head hull's plane facing it ([`node_hull_clear`]: flat
+//! layers beside a tilted head's flank), else the walk descends. With a slope the margin
 //! grows with distance from the tip: a node is measured at its farthest
 //! point from the tip ([`sphere_margin`]), a triangle at its farthest
 //! corner ([`triangle_margin`]). Leaf triangles get the
@@ -276,7 +278,9 @@ pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
         if cls < 0 {
             return Some(NO_TRIANGLE);
         }
-        if slab_clear(s.head, s.grid, q, &node, margin) {
+        if slab_clear(s.head, s.grid, q, &node, margin)
+            || node_hull_clear(s.head, s.grid, q, &node, c, margin)
+        {
             continue;
         }
         match node.leaf_range() {
@@ -335,6 +339,64 @@ pub fn slab_gap(h: &GpuHeadParams, grid: &[f32], q: &GpuQuery, node: &GpuPartNod
     let below = grid[(h.support_offset + support_cell([-nh[0], -nh[1], -nh[2]])) as usize];
     let above = grid[(h.support_offset + support_cell(nh)) as usize];
     (-below - hi).max(lo - above)
+}
+
+/// Does the node lie farther than `margin` from the head, beyond the hull
+/// plane of the cell holding its centre `c` (head frame)? See
+/// [`node_hull_gap`].
+#[inline(always)]
+pub fn node_hull_clear(
+    h: &GpuHeadParams,
+    grid: &[f32],
+    q: &GpuQuery,
+    node: &GpuPartNode,
+    c: V3,
+    margin: f32,
+) -> bool {
+    node_hull_gap(h, grid, q, node, c) - h.grid_slack > margin
+}
+
+/// How far the node lies beyond the hull plane `n · x = h` of the cell
+/// holding its centre `c` (head frame; `scene::hull_plane`): the least
+/// `n · x − h` over the points `x` of its sphere that its slab allows
+/// (`scene::slab`). With `α = n · m` for the slab's normal `m` (head
+/// frame), `β = √(1 − α²)`, a point `c + a m + y` (`y ⊥ m`, `|y| ≤ √(r² −
+/// a²)`, `a` in the slab's interval) has `n · x ≥ n · c + α a − β √(r² −
+/// a²)`, least at `a = −α r` clamped to the interval. A flat node beside
+/// a tilted head's flank, nearly parallel to it, is bounded by about its
+/// distance, where its sphere alone reaches into the head (on simple_curve
+/// tilted 50° the graph's queries took 1.9 s instead of 3.4 s). `β` is
+/// taken from `1 − α² + 10⁻⁶` (the f32 normals are unit only within
+/// rounding, and `√` is steep near 0), and `10⁻⁵ r` more is given up for
+/// the rest of the rounding.
+#[inline(always)]
+pub fn node_hull_gap(
+    h: &GpuHeadParams,
+    grid: &[f32],
+    q: &GpuQuery,
+    node: &GpuPartNode,
+    c: V3,
+) -> f32 {
+    let Some([ix, iy, iz]) = grid_cell(c, h.plane_origin, h.plane_inv_cell, h.plane_dims) else {
+        return -1.0;
+    };
+    let [nx, ny, _] = h.plane_dims;
+    let k = (h.plane_offset + 4 * ((iz * ny + iy) * nx + ix)) as usize;
+    let n = [grid[k], grid[k + 1], grid[k + 2]];
+    // The slab's normal in the head frame, and its interval in mm.
+    let m = oct_decode(unpack_snorm2x16(node.slab_normal));
+    let mh = [
+        q.rows[0][0] * m[0] + q.rows[0][1] * m[1] + q.rows[0][2] * m[2],
+        q.rows[1][0] * m[0] + q.rows[1][1] * m[1] + q.rows[1][2] * m[2],
+        q.rows[2][0] * m[0] + q.rows[2][1] * m[1] + q.rows[2][2] * m[2],
+    ];
+    let [lo, hi] = unpack_snorm2x16(node.slab_range);
+    let r = node.radius;
+    let alpha = dot(n, mh).clamp(-1.0, 1.0);
+    let beta = (1.0 - alpha * alpha + 1e-6).sqrt();
+    let a = (-alpha * r).clamp(lo * r, hi * r);
+    let least = alpha * a - beta * (r * r - a * a).max(0.0).sqrt();
+    dot(n, c) + least - grid[k + 3] - 1e-5 * r
 }
 
 /// The first triangle of the leaf `first..first + count` that exists at

@@ -23,7 +23,8 @@
 //! leaves no cut.
 
 use super::cpu::{
-    grid_cell, leaf_hit, slab_gap, sphere_margin, to_head, SceneView, NO_TRIANGLE, STACK_SIZE,
+    grid_cell, leaf_hit, node_hull_gap, slab_gap, sphere_margin, to_head, SceneView, NO_TRIANGLE,
+    STACK_SIZE,
 };
 use crate::geometry::aabb::point_box_distance;
 use crate::geometry::{length, V3};
@@ -164,11 +165,17 @@ fn walk(
         if inside {
             return Some(NO_TRIANGLE);
         }
-        // Clear by its sphere, else by its slab: the cut keeps how far.
+        // Clear by its sphere, else by its slab, else by the hull's plane:
+        // the cut keeps how far.
         let clear = if clear - s.head.grid_slack > margin {
             clear
         } else {
             slab_gap(s.head, s.grid, q, &node)
+        };
+        let clear = if clear - s.head.grid_slack > margin {
+            clear
+        } else {
+            node_hull_gap(s.head, s.grid, q, &node, c)
         };
         if clear - s.head.grid_slack > margin {
             cut.push(Cut {
