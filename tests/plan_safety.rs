@@ -489,3 +489,101 @@ fn turning_moves_are_proven_by_the_tips_travel_not_the_rims() {
     let dense = prover.sampled_moves(&specs, 0.01, 400).unwrap();
     assert!(dense.iter().all(|&h| !h));
 }
+
+/// Layer 1 runs over a flat strip printed in layer 0, every nozzle tipped
+/// 60° towards +x: the cone's flank dips into the strip, so every
+/// waypoint collides as given and needs a variant. With `caged`, its
+/// middle waypoint sits inside a small closed cube printed in layer 0,
+/// where every orientation collides.
+fn tipped_run(n: usize, caged: bool) -> (Toolpath, Mesh, Mesh, usize) {
+    let xs1: Vec<f32> = (0..n)
+        .map(|i| -0.75 * (n / 2) as f32 + 0.75 * i as f32)
+        .collect();
+    let half = 0.75 * (n / 2) as f32 + 4.0;
+    let mut floor = strip(-half, half, 6.0, 0.5);
+    if caged {
+        floor = merge(floor, &box_mesh([-0.4, -0.4, 0.6], [0.4, 0.4, 1.4]));
+    }
+    let tp = Toolpath {
+        layers: vec![
+            line(
+                "0",
+                &[-half + 1.0, half - 1.0],
+                0.0,
+                0.5,
+                [0.0, 0.0, 1.0],
+                floor,
+            ),
+            line(
+                "1",
+                &xs1,
+                0.0,
+                1.0,
+                unit([60f64.to_radians().sin(), 0.0, 60f64.to_radians().cos()]),
+                strip(-half, half, 6.0, 1.0),
+            ),
+        ],
+    };
+    let head = cone_head(5.0, 5.0, 8.0, 24);
+    let platform = box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]);
+    (tp, head, platform, 2 + n / 2)
+}
+
+#[test]
+fn a_caged_waypoint_inside_a_run_of_colliding_ones_is_skipped_and_its_section_split() {
+    // The caged waypoint is no probe (its run's ends are), so its variants
+    // are asked only when the search's path takes them: all die, the
+    // eager search finds nothing either, and it is skipped mid-search —
+    // its section split in two, both printed.
+    let (tp, head, platform, g) = tipped_run(13, true);
+    let m = Machine::default();
+    let (_, p) = plan_of(&tp, &head, &platform, &m);
+    assert!(
+        p.input.residual_collisions >= 13,
+        "the run collides as given"
+    );
+    assert_eq!(p.waypoints[g].skipped, Some(Skip::Residual));
+    assert_eq!(p.plan.skipped_waypoints - p.plan.isolated_waypoints, 1);
+    assert!(p.waypoints[g - 1].skipped.is_none() && p.waypoints[g + 1].skipped.is_none());
+    assert!(
+        p.waypoints[g + 1].section_start,
+        "printing resumes after it as a new section"
+    );
+    assert_eq!(p.plan.residual_collisions, 0);
+    assert_eq!(p.plan.colliding_edges, 0);
+    let at = p.waypoints[g].p;
+    let nearest = written_tips(&m, &p)
+        .into_iter()
+        .map(|t| dist(t, at))
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        nearest > 0.5,
+        "a G-code line puts the tip {nearest} mm from it"
+    );
+}
+
+#[test]
+fn colliding_waypoints_ask_only_what_their_path_takes() {
+    // 400 waypoints that all collide as given. An eager column asks its
+    // whole first round of variants (25 here) to keep up to 16 free ones,
+    // of which the path takes one; the probes ask that for every 8th
+    // waypoint and the others only the variants their path takes, so the
+    // columns and the graph together ask a few queries a waypoint (6.7).
+    let n = 400;
+    let (tp, head, platform, _) = tipped_run(n, false);
+    let m = Machine::default();
+    let (_, p) = plan_of(&tp, &head, &platform, &m);
+    assert!(
+        p.input.residual_collisions >= n,
+        "the run collides as given"
+    );
+    assert_eq!(p.plan.skipped_waypoints - p.plan.isolated_waypoints, 0);
+    assert_eq!(p.plan.residual_collisions, 0);
+    assert_eq!(p.plan.colliding_edges, 0);
+    let asked = |stage: &str| p.stages.iter().find(|s| s.name == stage).unwrap().queries;
+    let (columns, graph) = (asked("columns"), asked("graph"));
+    assert!(
+        columns + graph < 8 * n as u64,
+        "columns {columns} + graph {graph} queries for {n} waypoints"
+    );
+}

@@ -17,7 +17,7 @@ use std::ops::Range;
 
 /// A chosen path: node index per column and whether column `i` is entered
 /// through a break.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Path {
     /// Node per column.
     pub nodes: Vec<usize>,
@@ -37,6 +37,15 @@ pub struct Columns<'a> {
     pub lens: &'a [f64],
     /// Edge costs.
     pub cost: &'a CostModel,
+    /// Whether node `j` of column `i` may be on a path (a node whose pose
+    /// was found to collide stays in its column, so that indices keep
+    /// their meaning, but is never taken). Every column must keep one.
+    pub live: &'a (dyn Fn(usize, usize) -> bool + Sync),
+}
+
+/// Every node may be on a path.
+pub fn all_live(_: usize, _: usize) -> bool {
+    true
 }
 
 /// Printing edges `(column of the edge's end, from node, to node)`.
@@ -56,7 +65,7 @@ pub struct Blocked {
 /// Shortest path through the columns avoiding the blocked printing edges
 /// (breaks stay possible everywhere).
 pub fn shortest_path(g: Columns, edges: &Blocked) -> Path {
-    shortest_path_with(g.cols, g.lens, g.cost, &|i, k, j| {
+    shortest_path_with(g.cols, g.lens, g.cost, g.live, &|i, k, j| {
         edges.blocked.contains(&(i, k, j))
     })
 }
@@ -80,7 +89,8 @@ pub fn repair(g: Columns, edges: &Blocked, path: &Path, window: Range<usize>) ->
         })
         .collect();
     let global = |i: usize, n: usize| if pinned(i) { path.nodes[i] } else { n };
-    let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &|l, k, j| {
+    let live = |l: usize, j: usize| (g.live)(a + l, global(a + l, j));
+    let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &live, &|l, k, j| {
         edges
             .blocked
             .contains(&(a + l, global(a + l - 1, k), global(a + l, j)))
@@ -110,11 +120,13 @@ pub fn path_cost(g: Columns, p: &Path) -> f64 {
         .sum()
 }
 
-/// [`shortest_path`] with the blocked edges given by a predicate.
+/// [`shortest_path`] with the live nodes and the blocked edges given by
+/// predicates.
 fn shortest_path_with(
     cols: &[Vec<Axes>],
     lens: &[f64],
     cm: &CostModel,
+    live: &dyn Fn(usize, usize) -> bool,
     blocked: &dyn Fn(usize, usize, usize) -> bool,
 ) -> Path {
     if cols.is_empty() {
@@ -124,7 +136,9 @@ fn shortest_path_with(
             cost: 0.0,
         };
     }
-    let mut cost: Vec<f64> = vec![0.0; cols[0].len()];
+    let mut cost: Vec<f64> = (0..cols[0].len())
+        .map(|j| if live(0, j) { 0.0 } else { f64::INFINITY })
+        .collect();
     let mut from: Vec<Vec<(usize, bool)>> = vec![vec![(0, false); cols[0].len()]];
     for i in 1..cols.len() {
         let len = lens[i - 1];
@@ -132,7 +146,15 @@ fn shortest_path_with(
         let mut fi = Vec::with_capacity(cols[i].len());
         for (j, b) in cols[i].iter().enumerate() {
             let mut best = (f64::INFINITY, (0, true));
+            if !live(i, j) {
+                ci.push(best.0);
+                fi.push(best.1);
+                continue;
+            }
             for (k, a) in cols[i - 1].iter().enumerate() {
+                if cost[k] == f64::INFINITY {
+                    continue; // Dead, or not reachable.
+                }
                 let c = cost[k] + cm.brk(len, a, b);
                 if c < best.0 {
                     best = (c, (k, true));
@@ -191,7 +213,14 @@ pub fn shortest_path_subsampled(g: Columns, blocked: &Blocked, k: usize) -> Path
         .windows(2)
         .map(|w| g.lens[w[0]..w[1]].iter().sum())
         .collect();
-    let coarse = shortest_path_with(&coarse_cols, &coarse_lens, g.cost, &|_, _, _| false);
+    let coarse_live = |m: usize, j: usize| (g.live)(picks[m], j);
+    let coarse = shortest_path_with(
+        &coarse_cols,
+        &coarse_lens,
+        g.cost,
+        &coarse_live,
+        &|_, _, _| false,
+    );
     let mut nodes = vec![0; cols.len()];
     let mut breaks = vec![false; cols.len()];
     let mut cost = 0.0;
@@ -216,7 +245,8 @@ pub fn shortest_path_subsampled(g: Columns, blocked: &Blocked, k: usize) -> Path
                 n
             }
         };
-        let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &|l, kk, j| {
+        let live = |l: usize, j: usize| (g.live)(a + l, global(a + l, j));
+        let p = shortest_path_with(&sub, &g.lens[a..b], g.cost, &live, &|l, kk, j| {
             blocked
                 .blocked
                 .contains(&(a + l, global(a + l - 1, kk), global(a + l, j)))
@@ -248,6 +278,9 @@ mod tests {
                 return;
             }
             for j in 0..g.cols[i].len() {
+                if !(g.live)(i, j) {
+                    continue;
+                }
                 let (a, b) = (&g.cols[i - 1][prev], &g.cols[i][j]);
                 let mut w = g.cost.brk(g.lens[i - 1], a, b);
                 if !blocked.contains(&(i, prev, j)) {
@@ -258,7 +291,9 @@ mod tests {
         }
         let mut best = f64::INFINITY;
         for j in 0..g.cols[0].len() {
-            go(g, blocked, 1, j, 0.0, &mut best);
+            if (g.live)(0, j) {
+                go(g, blocked, 1, j, 0.0, &mut best);
+            }
         }
         best
     }
@@ -289,10 +324,22 @@ mod tests {
                 })
                 .collect();
             let lens: Vec<f64> = (0..n).map(|_| rnd() * 2.0).collect();
+            // A quarter of the nodes found colliding, each column keeping
+            // its last one.
+            let dead: Vec<Vec<bool>> = cols
+                .iter()
+                .map(|c| {
+                    (0..c.len())
+                        .map(|j| j + 1 < c.len() && rnd() < 0.25)
+                        .collect()
+                })
+                .collect();
+            let live = |i: usize, j: usize| !dead[i][j];
             let g = Columns {
                 cols: &cols,
                 lens: &lens,
                 cost: &cm,
+                live: &live,
             };
             let mut blocked = EdgeSet::new();
             for i in 1..n {
@@ -317,6 +364,8 @@ mod tests {
                 b
             );
             assert!((path_cost(g, &p) - p.cost).abs() < 1e-6 * p.cost.max(1.0));
+            let alive = |path: &Path| (0..n).all(|i| live(i, path.nodes[i]));
+            assert!(alive(&p), "a dead node on the path");
             for i in 1..n {
                 if !p.breaks[i] {
                     assert!(!blocked.contains(&(i, p.nodes[i - 1], p.nodes[i])));
@@ -332,6 +381,7 @@ mod tests {
                 }
                 let r = repair(g, &more, &p, 1..n - 1);
                 assert!((path_cost(g, &r) - r.cost).abs() < 1e-6 * r.cost.max(1.0));
+                assert!(alive(&r), "a dead node on the repaired path");
                 assert_eq!(r.nodes[0], p.nodes[0]);
                 assert_eq!(r.nodes[n - 1], p.nodes[n - 1]);
                 let fresh = shortest_path(g, &more);
@@ -347,6 +397,7 @@ mod tests {
                 let s = shortest_path_subsampled(g, &edges, k);
                 assert_eq!(s.nodes.len(), n);
                 assert!(s.cost >= p.cost - 1e-6 * p.cost.max(1.0), "k {k}");
+                assert!(alive(&s), "a dead node on the subsampled path");
                 if k == 1 {
                     assert!((s.cost - p.cost).abs() < 1e-6 * p.cost.max(1.0));
                 }
@@ -377,6 +428,7 @@ mod tests {
             cols: &cols,
             lens: &lens,
             cost: &cm,
+            live: &all_live,
         };
         let path = shortest_path(g, &Blocked::default());
         assert_eq!(path.breaks, vec![false, true, false]);

@@ -3,15 +3,17 @@
 //!
 //! 1. **smooth** the orientations per continuous run ([`smooth`]);
 //! 2. give **singular** runs their rotary angles ([`singular`]);
-//! 3. **columns**: every waypoint's candidate configurations — both IK
-//!    solutions of its orientation, else collision-free variants
-//!    ([`candidates`]), else every orientation the machine can reach 5°
-//!    apart; only configurations inside the tilt, X, Y, Z (and C) ranges
-//!    are considered. A waypoint with none is skipped and reported;
-//! 4. **graph**: per section, the cheapest path through the layered graph
-//!    ([`graph`], priced by [`cost`]), every printing move on it proven
-//!    free ([`motion`]); moves that are not get blocked and the section is
-//!    solved again, until the whole path is proven;
+//! 3. **columns** (`columns`): every waypoint's candidate configurations
+//!    — both IK solutions of its orientation, else variants
+//!    ([`candidates`]), asked only when the search takes them, else every
+//!    orientation the machine can reach 5° apart; only configurations
+//!    inside the tilt, X, Y, Z (and C) ranges are considered. A waypoint
+//!    with none is skipped and reported;
+//! 4. **graph** (`search`): per section, the cheapest path through the
+//!    layered graph ([`graph`], priced by [`cost`]), every node on it
+//!    asked and every printing move proven free ([`motion`]); what fails
+//!    dies or is blocked and the path is solved again around it, until the
+//!    whole path is proven;
 //! 5. **extrusion**: layer heights from the surfaces below ([`extrusion`]),
 //!    E along the beads (Eq. 1);
 //! 6. **program**: every move the machine makes ([`program`]), travels
@@ -20,6 +22,7 @@
 //!    move, and the input measured by the same rules ([`metrics`]).
 
 pub mod candidates;
+mod columns;
 pub mod cost;
 pub mod extrusion;
 pub mod graph;
@@ -27,6 +30,7 @@ pub mod layer_reading;
 pub mod metrics;
 pub mod motion;
 pub mod program;
+mod search;
 pub mod singular;
 pub mod smooth;
 pub mod spread;
@@ -60,6 +64,9 @@ pub enum PlanError {
         "the scene has {0} waypoints but the toolpath {1}: build the scene from this toolpath"
     )]
     Mismatch(usize, usize),
+    /// A bug, not a user error.
+    #[error("internal error: {0}")]
+    Internal(String),
 }
 
 /// Planner settings.
@@ -88,7 +95,8 @@ pub struct PlanOptions {
     pub dwell_weight: f64,
     /// Spacing of the exhaustive orientation search (radians).
     pub exhaustive_step: f64,
-    /// Most candidate configurations kept per waypoint.
+    /// Most candidate configurations a column offers the search at a time
+    /// (free, or variants not asked yet, which the search asks as it takes them).
     pub max_configs: usize,
     /// How far (radians) an orientation may move so that C can turn no
     /// faster than the extruder allows ([`spread`]); 0 turns it off.
@@ -304,8 +312,23 @@ struct State<'a> {
     /// Singular-run angles, and whether the input orientation is singular.
     fixed: Vec<Option<(f64, f64)>>,
     was_singular: Vec<bool>,
-    /// Candidate configurations per waypoint (as written).
+    /// Candidate configurations per waypoint (as written), and beside
+    /// each what is known of it ([`columns`]).
     cols: Vec<Vec<Axes>>,
+    nodes: Vec<Vec<columns::Node>>,
+    /// Per waypoint: the next of its first round of variants to enter its
+    /// window ([`columns::EXHAUSTED`]: none), how often a node its path
+    /// took collided, whether any configuration was in the machine's
+    /// ranges, and the orientation it is planned around.
+    cursor: Vec<u32>,
+    misses: Vec<u8>,
+    /// Per colliding waypoint: its first-round variants free at a probe
+    /// (a probe's own, or those free at both probes around it), and
+    /// whether it is a probe ([`columns::PROBE_EVERY`]).
+    free_at: Vec<u128>,
+    probed: Vec<bool>,
+    offered: Vec<bool>,
+    centre: Vec<[f64; 3]>,
     skip: Vec<Option<Skip>>,
     /// Runs split at skipped waypoints, and their chosen paths.
     sections: Vec<Range<usize>>,
@@ -439,6 +462,13 @@ impl<'a> State<'a> {
             fixed: vec![None; n_wp],
             was_singular: vec![false; n_wp],
             cols: vec![Vec::new(); n_wp],
+            nodes: vec![Vec::new(); n_wp],
+            cursor: vec![columns::EXHAUSTED; n_wp],
+            misses: vec![0; n_wp],
+            free_at: vec![u128::MAX; n_wp],
+            probed: vec![false; n_wp],
+            offered: vec![false; n_wp],
+            centre: Vec::new(),
             skip: vec![None; n_wp],
             sections: Vec::new(),
             paths: Vec::new(),
@@ -484,278 +514,6 @@ impl<'a> State<'a> {
         ok.then_some(a)
     }
 
-    /// Check IK pairs `(waypoint, [solution, mirror])` and add the free,
-    /// feasible configurations to the columns (up to the cap). A
-    /// half-turn-symmetric head needs one query per pair. Returns whether
-    /// any feasible configuration was offered per item.
-    fn offer(
-        &mut self,
-        prover: &Prover,
-        items: &[(usize, [(f64, f64); 2])],
-        likely_free: bool,
-    ) -> Result<Vec<bool>, PlanError> {
-        let cand: Vec<Vec<Axes>> = items
-            .par_iter()
-            .map(|&(g, pair)| pair.iter().filter_map(|&tc| self.feasible(g, tc)).collect())
-            .collect();
-        let mut queries = Vec::new();
-        let mut owner = Vec::new();
-        for (k, (c, &(g, _))) in cand.iter().zip(items).enumerate() {
-            let n = if self.symmetric {
-                c.len().min(1)
-            } else {
-                c.len()
-            };
-            for a in &c[..n] {
-                queries.push((*a, cutoff(g)));
-                owner.push(k);
-            }
-        }
-        let hits = if likely_free {
-            let needs = self.end_needs(prover, items, &cand, &queries, &owner);
-            prover.poses_wide(&queries, &needs)?
-        } else {
-            prover.poses(&queries)?
-        };
-        let mut free = vec![Vec::new(); items.len()];
-        for ((&k, h), q) in owner.iter().zip(hits).zip(&queries) {
-            if self.symmetric {
-                // The mirror is the same head geometry: the same verdict.
-                for a in &cand[k][1..] {
-                    prover.same_as(a, q.1, &q.0);
-                }
-            }
-            if !h {
-                if self.symmetric {
-                    free[k].extend(cand[k].iter().copied());
-                } else {
-                    free[k].push(q.0);
-                }
-            }
-        }
-        let cap = self.opts.max_configs;
-        for (k, &(g, _)) in items.iter().enumerate() {
-            for a in free[k].drain(..) {
-                if self.cols[g].len() < cap && !self.cols[g].contains(&a) {
-                    self.cols[g].push(a);
-                }
-            }
-        }
-        Ok(cand.iter().map(|c| !c.is_empty()).collect())
-    }
-
-    /// [`State::offer`] for items that list each waypoint's candidates
-    /// together, in the order they should be preferred: a waypoint's items
-    /// are offered a wave of `max_configs` at a time, and a waypoint whose
-    /// column is full asks no more. A column keeps the first free
-    /// configurations in item order up to the cap either way, so the
-    /// columns are the same as offering every item at once; what changes
-    /// is that the items the cap would drop are never asked (on dome_cut
-    /// with its normals as given, the last resort's shells asked about
-    /// 190 directions per waypoint, half of them free, to keep 16).
-    /// Waves hold at most 2²⁰ items, which bounds the batch's memory.
-    fn offer_until_full(
-        &mut self,
-        prover: &Prover,
-        items: &[(usize, [(f64, f64); 2])],
-    ) -> Result<Vec<bool>, PlanError> {
-        const MOST: usize = 1 << 20;
-        let (wave, cap) = (self.opts.max_configs.max(1), self.opts.max_configs);
-        // Each waypoint's items: a contiguous range.
-        let mut groups: Vec<Range<usize>> = Vec::new();
-        for (i, it) in items.iter().enumerate() {
-            match groups.last_mut() {
-                Some(r) if items[r.start].0 == it.0 => r.end = i + 1,
-                _ => groups.push(i..i + 1),
-            }
-        }
-        let mut offered = vec![false; items.len()];
-        let mut next: Vec<usize> = groups.iter().map(|r| r.start).collect();
-        loop {
-            let mut asked: Vec<usize> = Vec::new();
-            for (r, at) in groups.iter().zip(next.iter_mut()) {
-                if *at == r.end || self.cols[items[r.start].0].len() >= cap {
-                    continue;
-                }
-                if asked.len() + wave > MOST && !asked.is_empty() {
-                    break;
-                }
-                let end = (*at + wave).min(r.end);
-                asked.extend(*at..end);
-                *at = end;
-            }
-            if asked.is_empty() {
-                return Ok(offered);
-            }
-            let wave_items: Vec<_> = asked.iter().map(|&i| items[i]).collect();
-            for (&i, o) in asked.iter().zip(self.offer(prover, &wave_items, false)?) {
-                offered[i] = o;
-            }
-        }
-    }
-
-    /// What each query `(a, g)` of `offer` (owned by `items[owner[i]]`)
-    /// must keep so that the beads to the neighbouring waypoints' offered
-    /// configurations (the nearest in rotation of each, as the graph
-    /// usually takes them) start proven at this end ([`Prover::end_need`]).
-    fn end_needs(
-        &self,
-        prover: &Prover,
-        items: &[(usize, [(f64, f64); 2])],
-        cand: &[Vec<Axes>],
-        queries: &[(Axes, u32)],
-        owner: &[usize],
-    ) -> Vec<(f64, f64)> {
-        // joined[g]: a bead is printed from g − 1 to g.
-        let mut joined = vec![false; self.pos.len()];
-        for r in &self.runs {
-            joined[r.start + 1..r.end].fill(true);
-        }
-        queries
-            .par_iter()
-            .zip(owner)
-            .map(|(&(a, _), &k)| {
-                let g = items[k].0;
-                let mut near = Vec::with_capacity(2);
-                for (j, nb) in [(k.wrapping_sub(1), g.wrapping_sub(1)), (k + 1, g + 1)] {
-                    let Some(&(h, _)) = items.get(j) else {
-                        continue;
-                    };
-                    if h != nb || !joined[g.max(nb)] {
-                        continue;
-                    }
-                    let nearest = cand[j]
-                        .iter()
-                        .map(|b| Axes {
-                            c: self.unwound(a.c, b.c),
-                            ..*b
-                        })
-                        .min_by(|x, y| a.rotation_to(x).total_cmp(&a.rotation_to(y)));
-                    near.extend(nearest);
-                }
-                prover.end_need(&a, &near)
-            })
-            .collect()
-    }
-
-    /// Stage 3: candidate configurations per waypoint; waypoints with none
-    /// are skipped.
-    fn columns(&mut self, prover: &Prover) -> Result<(), PlanError> {
-        let rot = self.machine.rotary;
-        let n = self.pos.len();
-        // The orientation each waypoint is planned around.
-        let centre: Vec<[f64; 3]> = (0..n)
-            .map(|g| self.fixed[g].map_or(self.n1[g], |(t, c)| orientation(rot, t, c)))
-            .collect();
-        let base: Vec<(usize, [(f64, f64); 2])> = (0..n)
-            .map(|g| {
-                let pair = match self.fixed[g] {
-                    Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
-                    None => ik_angles(rot, self.n1[g]),
-                };
-                (g, pair)
-            })
-            .collect();
-        let mut offered = self.offer(prover, &base, true)?;
-        // Variants, round by round, for waypoints with nothing free.
-        let mut open: Vec<usize> = (0..n).filter(|&g| self.cols[g].is_empty()).collect();
-        let mut round = 0u32;
-        while !open.is_empty() {
-            let mut items = Vec::new();
-            for &g in &open {
-                // The first round also offers the waypoint's own, unsmoothed
-                // orientation: smoothing must not make a free waypoint collide.
-                let own = (round == 0).then_some(self.n0[g]);
-                // One pattern for every waypoint: neighbours get matching
-                // candidates, so the graph can keep the motion smooth.
-                let sampled = candidates::round(
-                    centre[g],
-                    0,
-                    round,
-                    self.opts.sampling,
-                    self.opts.beta,
-                    self.opts.alpha,
-                );
-                for d in own.into_iter().chain(sampled) {
-                    items.push((g, ik_angles(rot, d)));
-                }
-            }
-            if items.is_empty() {
-                break; // Sampling exhausted.
-            }
-            for (k, o) in self
-                .offer_until_full(prover, &items)?
-                .into_iter()
-                .enumerate()
-            {
-                offered[items[k].0] |= o;
-            }
-            open.retain(|&g| self.cols[g].is_empty());
-            round += 1;
-        }
-        // Last resort before giving a waypoint up: every reachable
-        // orientation, nearest first, in shells of widening angle.
-        if !open.is_empty() {
-            let m = self.machine;
-            let top = m.tilt.min.abs().max(m.tilt.max.abs()).to_radians();
-            let grid = candidates::reachable_directions(top, self.opts.exhaustive_step);
-            let dirs: Vec<[f64; 3]> = grid
-                .iter()
-                .map(|p| orientation(rot, p[0].0, p[0].1))
-                .collect();
-            let shell = 30f64.to_radians();
-            let mut lo = 0.0;
-            while !open.is_empty() && lo <= std::f64::consts::PI {
-                let hi = lo + shell;
-                let mut items = Vec::new();
-                for &g in &open {
-                    let c = centre[g];
-                    let mut near: Vec<(f64, usize)> = dirs
-                        .iter()
-                        .enumerate()
-                        .map(|(k, d)| {
-                            let cos = (d[0] * c[0] + d[1] * c[1] + d[2] * c[2]).clamp(-1.0, 1.0);
-                            (cos.acos(), k)
-                        })
-                        .filter(|&(a, _)| a >= lo && a < hi)
-                        .collect();
-                    near.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
-                }
-                for (k, o) in self
-                    .offer_until_full(prover, &items)?
-                    .into_iter()
-                    .enumerate()
-                {
-                    offered[items[k].0] |= o;
-                }
-                open.retain(|&g| self.cols[g].is_empty());
-                lo = hi;
-            }
-        }
-        for g in open {
-            self.skip[g] = Some(if offered[g] {
-                Skip::Residual
-            } else {
-                Skip::Unreachable
-            });
-        }
-        // Under a C range, every whole turn of C inside it is a node.
-        if let Some(range) = self.machine.c.range {
-            for col in &mut self.cols {
-                *col = col
-                    .iter()
-                    .flat_map(|a| {
-                        windings(a.c, range)
-                            .into_iter()
-                            .map(move |c| Axes { c, ..*a })
-                    })
-                    .collect();
-            }
-        }
-        Ok(())
-    }
-
     fn cost_model(&self, layer: usize) -> CostModel {
         let t = self.machine.tool_for(self.support[layer]);
         CostModel::new(self.machine, t.feed, t.tip_speed, self.opts.dwell_weight)
@@ -796,258 +554,6 @@ impl<'a> State<'a> {
         } else {
             Winding::Free
         }
-    }
-
-    /// Stage 4: per section, the cheapest path whose printing moves are all
-    /// proven free; then rotations the extruder cannot follow are spread
-    /// ([`spread`]) and the sections that got new candidates solved again.
-    fn graph(&mut self, prover: &Prover) -> Result<(), PlanError> {
-        // Sections: runs split at skipped waypoints.
-        for r in &self.runs {
-            let mut start = r.start;
-            for g in r.clone() {
-                if self.skip[g].is_some() {
-                    if start < g {
-                        self.sections.push(start..g);
-                    }
-                    start = g + 1;
-                }
-            }
-            if start < r.end {
-                self.sections.push(start..r.end);
-            }
-        }
-        let lens: Vec<f64> = (0..self.pos.len())
-            .map(|g| self.pos.get(g + 1).map_or(0.0, |q| dist(self.pos[g], *q)))
-            .collect();
-        let models: Vec<CostModel> = self
-            .sections
-            .iter()
-            .map(|r| self.cost_model(self.layer_of[r.start]))
-            .collect();
-        let mut search = Search {
-            edges: vec![Blocked::default(); self.sections.len()],
-            paths: vec![
-                Path {
-                    nodes: Vec::new(),
-                    breaks: Vec::new(),
-                    cost: 0.0
-                };
-                self.sections.len()
-            ],
-        };
-        let all: Vec<usize> = (0..self.sections.len()).collect();
-        self.solve(&mut search, &all, &lens, &models, prover)?;
-        let changed = self.spread(&search.paths, &lens, &models, prover)?;
-        if !changed.is_empty() {
-            self.solve(&mut search, &changed, &lens, &models, prover)?;
-        }
-        self.paths = search.paths;
-        Ok(())
-    }
-
-    /// Solve sections `which` and prove their paths' printing moves,
-    /// blocking what fails and solving again until every path is proven.
-    /// After a block, only a window of [`REPAIR_WINDOWS`] columns around it
-    /// is solved again (the rest of the path is already proven); the whole
-    /// section only when that needs fewer breaks than the repair.
-    fn solve(
-        &self,
-        search: &mut Search,
-        which: &[usize],
-        lens: &[f64],
-        models: &[CostModel],
-        prover: &Prover,
-    ) -> Result<(), PlanError> {
-        let columns = |s: usize| {
-            let r = self.sections[s].clone();
-            Columns {
-                cols: &self.cols[r.clone()],
-                lens: &lens[r],
-                cost: &models[s],
-            }
-        };
-        let breaks = |p: &Path| p.breaks.iter().filter(|&&b| b).count();
-        // Sections to solve, with the columns blocked since the last round
-        // (empty: solve the whole section).
-        let mut dirty: Vec<(usize, Vec<usize>)> = which.iter().map(|&s| (s, Vec::new())).collect();
-        while !dirty.is_empty() {
-            let fresh: Vec<Path> = dirty
-                .par_iter()
-                .map(|(s, cols)| {
-                    let (g, edges) = (columns(*s), &search.edges[*s]);
-                    let full = || graph::shortest_path_subsampled(g, edges, self.opts.subsample);
-                    if cols.is_empty() {
-                        return full();
-                    }
-                    let old = &search.paths[*s];
-                    let mut repaired = old.clone();
-                    for w in REPAIR_WINDOWS {
-                        repaired = old.clone();
-                        for r in windows(cols, g.cols.len(), w) {
-                            repaired = graph::repair(g, edges, &repaired, r);
-                        }
-                        if breaks(&repaired) <= breaks(old) {
-                            return repaired;
-                        }
-                    }
-                    // The block costs a break: keep the repair unless a
-                    // new path through the whole section needs fewer.
-                    let fresh = full();
-                    if breaks(&fresh) < breaks(&repaired) {
-                        fresh
-                    } else {
-                        repaired
-                    }
-                })
-                .collect();
-            for ((s, _), p) in dirty.iter().zip(fresh) {
-                search.paths[*s] = p;
-            }
-            // The path's printing edges not known yet, then their moves
-            // (splitting a bead asks which layer its points read as: in
-            // parallel, in edge order).
-            let mut todo = Vec::new();
-            for (s, _) in &dirty {
-                let (r, p) = (&self.sections[*s], &search.paths[*s]);
-                for k in 1..r.len() {
-                    let key = (k, p.nodes[k - 1], p.nodes[k]);
-                    let known = &search.edges[*s];
-                    if p.breaks[k] || known.proven.contains(&key) || known.blocked.contains(&key) {
-                        continue;
-                    }
-                    todo.push((*s, key, r.start + k));
-                }
-            }
-            let per_edge: Vec<Vec<MoveSpec>> = todo
-                .par_iter()
-                .map(|&(_, key, g)| {
-                    self.print_moves(g, &self.cols[g - 1][key.1], &self.cols[g][key.2])
-                })
-                .collect();
-            let mut moves = Vec::new();
-            let mut edges = Vec::with_capacity(todo.len());
-            for ((s, key, _), m) in todo.into_iter().zip(per_edge) {
-                let first = moves.len();
-                moves.extend(m);
-                edges.push((s, key, first..moves.len()));
-            }
-            let hits = prover.moves(&moves)?;
-            dirty.clear();
-            for (s, key, range) in edges {
-                if hits[range].iter().any(|&h| h) {
-                    search.edges[s].blocked.insert(key);
-                    match dirty.last_mut() {
-                        Some((last, cols)) if *last == s => cols.push(key.0),
-                        _ => dirty.push((s, vec![key.0])),
-                    }
-                } else {
-                    search.edges[s].proven.insert(key);
-                }
-            }
-        }
-        Ok(())
-    }
-
-    /// Offer C values that spread too-fast turns ([`spread`]) as extra
-    /// candidates where they are feasible and free. Returns the sections
-    /// that got any.
-    fn spread(
-        &mut self,
-        paths: &[Path],
-        lens: &[f64],
-        models: &[CostModel],
-        prover: &Prover,
-    ) -> Result<Vec<usize>, PlanError> {
-        let tol = self.opts.spread_tolerance;
-        let mut offers: Vec<(usize, usize, Axes)> = Vec::new();
-        for (s, r) in self.sections.iter().enumerate() {
-            let (p, cm) = (&paths[s], &models[s]);
-            let cfg: Vec<Axes> = r
-                .clone()
-                .enumerate()
-                .map(|(k, g)| self.cols[g][p.nodes[k]])
-                .collect();
-            // Printed runs between breaks.
-            let mut k0 = 0;
-            for k in 1..=r.len() {
-                if k < r.len() && !p.breaks[k] {
-                    continue;
-                }
-                let run = k0..k;
-                k0 = k;
-                let slow = run
-                    .clone()
-                    .skip(1)
-                    .any(|j| cm.dwell(lens[r.start + j - 1], &cfg[j - 1], &cfg[j]) > 0.0);
-                if run.len() < 2 || !slow {
-                    continue;
-                }
-                let mut target = Vec::with_capacity(run.len());
-                for j in run.clone() {
-                    let prev = target.last().copied().unwrap_or(cfg[j].c);
-                    target.push(prev + cm.winding.dc(prev, cfg[j].c));
-                }
-                // Each bead's time at the slowest tip speed, less room for
-                // the program's rounding: the written bead may be up to
-                // ROUNDING_MM shorter, each angle 0.001° off.
-                let budget = |j: usize, speed: f64| {
-                    let len = if j > 0 { lens[r.start + j - 1] } else { 0.0 };
-                    let len = (len - ROUNDING_MM).max(0.0);
-                    ((speed * len / cm.tip_speed[0]) * (1.0 - 1e-3) - 0.002)
-                        .max(0.0)
-                        .to_radians()
-                };
-                // C first, within the whole tolerance; then the tilt, within
-                // what C left of it.
-                let tube: Vec<f64> = run
-                    .clone()
-                    .map(|j| spread::c_tube(cfg[j].tilt, tol))
-                    .collect();
-                let rate: Vec<f64> = run.clone().map(|j| budget(j, cm.rotary[1])).collect();
-                let c = spread::rate_limited(&target, &tube, &rate);
-                let tilts: Vec<f64> = run.clone().map(|j| cfg[j].tilt).collect();
-                let t_tube: Vec<f64> = run
-                    .clone()
-                    .enumerate()
-                    .map(|(i, j)| {
-                        (tol - spread::c_deviation(cfg[j].tilt, c[i] - target[i])).max(0.0)
-                    })
-                    .collect();
-                let t_rate: Vec<f64> = run.clone().map(|j| budget(j, cm.rotary[0])).collect();
-                let t = spread::rate_limited(&tilts, &t_tube, &t_rate);
-                for (i, j) in run.enumerate() {
-                    if (c[i] - target[i]).abs() > 1e-5 || (t[i] - tilts[i]).abs() > 1e-5 {
-                        let cc = match cm.winding {
-                            Winding::Free => wrap(c[i]),
-                            Winding::Absolute => c[i],
-                        };
-                        let in_range = self
-                            .machine
-                            .c
-                            .range
-                            .is_none_or(|[lo, hi]| (lo..=hi).contains(&c[i].to_degrees()));
-                        if let Some(a) = self.feasible(r.start + j, (t[i], cc)) {
-                            if in_range {
-                                offers.push((s, r.start + j, a));
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        let items: Vec<(Axes, u32)> = offers.iter().map(|&(_, g, a)| (a, cutoff(g))).collect();
-        let hits = prover.poses(&items)?;
-        let mut changed = Vec::new();
-        for ((s, g, a), hit) in offers.into_iter().zip(hits) {
-            if !hit && !self.cols[g].contains(&a) {
-                self.cols[g].push(a);
-                if changed.last() != Some(&s) {
-                    changed.push(s);
-                }
-            }
-        }
-        Ok(changed)
     }
 
     /// Stage 5: layer heights and E along the printed beads.
@@ -1579,71 +1085,5 @@ mod tests {
         for block in [1, 7, 4096] {
             assert_eq!(largest_tip_deviation_in(&m, &moves, block), plain);
         }
-    }
-}
-
-#[cfg(test)]
-mod offer_tests {
-    use super::*;
-    use crate::collide::cpu::CpuBackend;
-    use crate::scene::{Scene, SceneConfig};
-
-    /// Offering a waypoint's candidates in waves, stopping once its column
-    /// is full, keeps the very configurations that offering them all at
-    /// once keeps (the first free ones, in order, up to the cap), and
-    /// asks fewer queries.
-    #[test]
-    fn offering_until_full_keeps_the_same_columns_with_fewer_queries() {
-        let job = crate::default_job::job();
-        let scene = Scene::build(
-            &job.toolpath,
-            &job.head,
-            &job.platform,
-            &SceneConfig::default(),
-        )
-        .unwrap();
-        let machine = Machine::default();
-        let opts = PlanOptions::default();
-        let backend = CpuBackend::new(&scene);
-        let top = machine
-            .tilt
-            .min
-            .abs()
-            .max(machine.tilt.max.abs())
-            .to_radians();
-        let grid = candidates::reachable_directions(top, opts.exhaustive_step);
-        // Every reachable direction for every 40th waypoint: most are free
-        // on this part, far more than the cap keeps.
-        let n = scene.waypoint_queries.len();
-        let items: Vec<(usize, [(f64, f64); 2])> = (0..n)
-            .step_by(40)
-            .flat_map(|g| grid.iter().map(move |d| (g, *d)))
-            .collect();
-        let columns = |waves: bool| {
-            let mut st = State::new(&scene, &job.toolpath, &machine, &opts);
-            let prover = Prover::new(&machine, &backend, head_reach(&scene), 0.05, 0.3);
-            let offered = if waves {
-                st.offer_until_full(&prover, &items).unwrap()
-            } else {
-                st.offer(&prover, &items, false).unwrap()
-            };
-            let mut any = vec![false; n];
-            for (it, o) in items.iter().zip(offered) {
-                any[it.0] |= o;
-            }
-            (st.cols, any, prover.queries())
-        };
-        let (all, all_offered, all_queries) = columns(false);
-        let (waved, waved_offered, waved_queries) = columns(true);
-        assert!(
-            all.iter().filter(|c| c.len() == opts.max_configs).count() > 10,
-            "full columns to compare"
-        );
-        assert_eq!(waved, all);
-        assert_eq!(waved_offered, all_offered);
-        assert!(
-            waved_queries * 4 < all_queries,
-            "{waved_queries} queries in waves, {all_queries} at once"
-        );
     }
 }

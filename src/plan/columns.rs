@@ -1,0 +1,746 @@
+//! Stage 3, the columns: per waypoint, the machine configurations the
+//! graph search may visit (paper 000, Sec. III-A), and what is known of
+//! each one's pose ([`Status`]).
+//!
+//! A waypoint whose own orientation is free gets its IK solutions,
+//! asked at once and wide enough that the beads to its neighbours start
+//! proven ([`Prover::poses_wide`]): that is most waypoints. One whose own
+//! orientation collides gets variants ([`candidates`]), and those are
+//! *not* asked here: its column is a window of at most `max_configs`
+//! unchecked nodes over its first round of variants, in their order, and
+//! the search asks a node only when its path takes it
+//! ([`super::search`]). A node found colliding stays in its column (so
+//! node indices keep their meaning) but dies, and the next variant enters
+//! the window. A column whose first round dies out gets the eager search
+//! ([`State::search_harder`]): wider rounds, then every reachable
+//! orientation in shells, asked until the column holds a free
+//! configuration; a waypoint with none is skipped.
+//!
+//! Why lazily: on simple_curve with every nozzle tilted 50° about x, 83 %
+//! of the waypoints collide as given and the eager columns asked 954,050
+//! poses to keep up to 16 free configurations each, of which the path
+//! takes one (a cap of 8 gave the very same plan).
+
+use super::*;
+use std::collections::HashMap;
+
+/// What is known of a node's pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Status {
+    /// Free at the pose margin.
+    Free,
+    /// Not asked yet: asked when a path takes it.
+    Unknown,
+    /// Not asked yet, and the same variant collides at a neighbouring
+    /// probe ([`PROBE_EVERY`]): kept off paths while its column has
+    /// anything else.
+    Unlikely,
+    /// Within the pose margin of material: never on a path.
+    Hit,
+}
+
+/// In a run of waypoints whose own orientations collide, every this many
+/// (and the run's ends) is a *probe*: its whole first round of variants
+/// is asked. Every waypoint offers the same pattern of variants around
+/// its own orientation, so a variant free at the probes on either side
+/// of a waypoint is likely free there too, and one that collides at
+/// either is likely to collide (on simple_curve tilted 50° the path's
+/// cheapest variants were the ones nearest the colliding input: without
+/// probes, 70 % of the nodes the paths took collided, round after round).
+pub(super) const PROBE_EVERY: usize = 8;
+
+/// Variants per waypoint a probe can vouch for: their IK solutions are
+/// bits of a `u128` (bit `2 · item + solution`); later ones are taken as
+/// plausible.
+const PROBED_ITEMS: usize = 64;
+
+/// A node of a column, beside its configuration in [`State::cols`].
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Node {
+    /// What is known of its pose.
+    pub status: Status,
+    /// Which of the column's poses it is: nodes of one configuration (C's
+    /// windings under a C range; a half-turn-symmetric head's two IK
+    /// solutions) share the pose and its verdict.
+    pub pose: u32,
+    /// Counted against `max_configs` (further windings of one
+    /// configuration are not, as before the columns were lazy).
+    pub counted: bool,
+}
+
+/// The cursor of a column with no variants left to enter its window.
+pub(super) const EXHAUSTED: u32 = u32::MAX;
+
+impl State<'_> {
+    /// May node `j` of waypoint `g`'s column be on a path?
+    pub(super) fn live(&self, g: usize, j: usize) -> bool {
+        matches!(self.nodes[g][j].status, Status::Free | Status::Unknown)
+    }
+
+    /// Live nodes of waypoint `g`'s column counted against the cap.
+    pub(super) fn live_count(&self, g: usize) -> usize {
+        self.nodes[g]
+            .iter()
+            .enumerate()
+            .filter(|&(j, n)| n.counted && self.live(g, j))
+            .count()
+    }
+
+    /// The pose number a configuration new to waypoint `g`'s column takes.
+    fn next_pose(&self, g: usize) -> u32 {
+        self.nodes[g].last().map_or(0, |n| n.pose + 1)
+    }
+
+    /// Add configuration `a` to waypoint `g`'s column as pose `pose` (under
+    /// a C range: one node per whole turn of C inside it), unless the
+    /// column holds it already. Returns whether it was added.
+    fn push_config(&mut self, g: usize, a: Axes, status: Status, pose: u32) -> bool {
+        let all = match self.machine.c.range {
+            Some(range) => windings(a.c, range)
+                .into_iter()
+                .map(|c| Axes { c, ..a })
+                .collect(),
+            None => vec![a],
+        };
+        if all.first().is_none_or(|first| self.cols[g].contains(first)) {
+            return false;
+        }
+        for (k, a) in all.into_iter().enumerate() {
+            self.cols[g].push(a);
+            self.nodes[g].push(Node {
+                status,
+                pose,
+                counted: k == 0,
+            });
+        }
+        true
+    }
+
+    /// Add the free configuration `a` to waypoint `g`'s column as it is
+    /// (a rate-limited C value that is already one whole turn of C),
+    /// unless the column holds it. Returns whether it was added.
+    pub(super) fn push_free(&mut self, g: usize, a: Axes) -> bool {
+        if self.cols[g].contains(&a) {
+            return false;
+        }
+        let pose = self.next_pose(g);
+        self.cols[g].push(a);
+        self.nodes[g].push(Node {
+            status: Status::Free,
+            pose,
+            counted: false,
+        });
+        true
+    }
+
+    /// Check IK pairs `(waypoint, [solution, mirror])` and add the free,
+    /// feasible configurations to the columns (up to the cap). A
+    /// half-turn-symmetric head needs one query per pair. Returns whether
+    /// any feasible configuration was offered per item.
+    pub(super) fn offer(
+        &mut self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+        likely_free: bool,
+    ) -> Result<Vec<bool>, PlanError> {
+        let cand: Vec<Vec<Axes>> = items
+            .par_iter()
+            .map(|&(g, pair)| pair.iter().filter_map(|&tc| self.feasible(g, tc)).collect())
+            .collect();
+        let mut queries = Vec::new();
+        let mut owner = Vec::new();
+        for (k, (c, &(g, _))) in cand.iter().zip(items).enumerate() {
+            let n = if self.symmetric {
+                c.len().min(1)
+            } else {
+                c.len()
+            };
+            for a in &c[..n] {
+                queries.push((*a, cutoff(g)));
+                owner.push(k);
+            }
+        }
+        let hits = if likely_free {
+            let needs = self.end_needs(prover, items, &cand, &queries, &owner);
+            prover.poses_wide(&queries, &needs)?
+        } else {
+            prover.poses(&queries)?
+        };
+        let mut free = vec![Vec::new(); items.len()];
+        for ((&k, h), q) in owner.iter().zip(hits).zip(&queries) {
+            if self.symmetric {
+                // The mirror is the same head geometry: the same verdict.
+                for a in &cand[k][1..] {
+                    prover.same_as(a, q.1, &q.0);
+                }
+            }
+            if !h {
+                if self.symmetric {
+                    free[k].extend(cand[k].iter().copied());
+                } else {
+                    free[k].push(q.0);
+                }
+            }
+        }
+        let cap = self.opts.max_configs;
+        for (k, &(g, _)) in items.iter().enumerate() {
+            // A symmetric head's pair is one pose; otherwise each solution.
+            let mut pose = self.next_pose(g);
+            for a in free[k].drain(..) {
+                if self.live_count(g) < cap && self.push_config(g, a, Status::Free, pose) {
+                    pose += (!self.symmetric) as u32;
+                }
+            }
+        }
+        Ok(cand.iter().map(|c| !c.is_empty()).collect())
+    }
+
+    /// [`State::offer`] for items that list each waypoint's candidates
+    /// together, in the order they should be preferred: a waypoint's items
+    /// are offered a wave of `max_configs` at a time, and a waypoint whose
+    /// column is full asks no more. A column keeps the first free
+    /// configurations in item order up to the cap either way, so the
+    /// columns are the same as offering every item at once; what changes
+    /// is that the items the cap would drop are never asked (on dome_cut
+    /// with its normals as given, the last resort's shells asked about
+    /// 190 directions per waypoint, half of them free, to keep 16).
+    /// Waves hold at most 2²⁰ items, which bounds the batch's memory.
+    pub(super) fn offer_until_full(
+        &mut self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+    ) -> Result<Vec<bool>, PlanError> {
+        const MOST: usize = 1 << 20;
+        let (wave, cap) = (self.opts.max_configs.max(1), self.opts.max_configs);
+        // Each waypoint's items: a contiguous range.
+        let mut groups: Vec<Range<usize>> = Vec::new();
+        for (i, it) in items.iter().enumerate() {
+            match groups.last_mut() {
+                Some(r) if items[r.start].0 == it.0 => r.end = i + 1,
+                _ => groups.push(i..i + 1),
+            }
+        }
+        let mut offered = vec![false; items.len()];
+        let mut next: Vec<usize> = groups.iter().map(|r| r.start).collect();
+        loop {
+            let mut asked: Vec<usize> = Vec::new();
+            for (r, at) in groups.iter().zip(next.iter_mut()) {
+                if *at == r.end || self.live_count(items[r.start].0) >= cap {
+                    continue;
+                }
+                if asked.len() + wave > MOST && !asked.is_empty() {
+                    break;
+                }
+                let end = (*at + wave).min(r.end);
+                asked.extend(*at..end);
+                *at = end;
+            }
+            if asked.is_empty() {
+                return Ok(offered);
+            }
+            let wave_items: Vec<_> = asked.iter().map(|&i| items[i]).collect();
+            for (&i, o) in asked.iter().zip(self.offer(prover, &wave_items, false)?) {
+                offered[i] = o;
+            }
+        }
+    }
+
+    /// What each query `(a, g)` of `offer` (owned by `items[owner[i]]`)
+    /// must keep so that the beads to the neighbouring waypoints' offered
+    /// configurations (the nearest in rotation of each, as the graph
+    /// usually takes them) start proven at this end ([`Prover::end_need`]).
+    fn end_needs(
+        &self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+        cand: &[Vec<Axes>],
+        queries: &[(Axes, u32)],
+        owner: &[usize],
+    ) -> Vec<(f64, f64)> {
+        // joined[g]: a bead is printed from g − 1 to g.
+        let mut joined = vec![false; self.pos.len()];
+        for r in &self.runs {
+            joined[r.start + 1..r.end].fill(true);
+        }
+        queries
+            .par_iter()
+            .zip(owner)
+            .map(|(&(a, _), &k)| {
+                let g = items[k].0;
+                let mut near = Vec::with_capacity(2);
+                for (j, nb) in [(k.wrapping_sub(1), g.wrapping_sub(1)), (k + 1, g + 1)] {
+                    let Some(&(h, _)) = items.get(j) else {
+                        continue;
+                    };
+                    if h != nb || !joined[g.max(nb)] {
+                        continue;
+                    }
+                    let nearest = cand[j]
+                        .iter()
+                        .map(|b| Axes {
+                            c: self.unwound(a.c, b.c),
+                            ..*b
+                        })
+                        .min_by(|x, y| a.rotation_to(x).total_cmp(&a.rotation_to(y)));
+                    near.extend(nearest);
+                }
+                prover.end_need(&a, &near)
+            })
+            .collect()
+    }
+
+    /// Stage 3: the columns. Every waypoint's own IK solutions are asked
+    /// (wide, for the beads to its neighbours); a waypoint whose own
+    /// orientation collides gets a window of unchecked variants, or, with
+    /// no feasible variant in the first round, the eager search; a
+    /// waypoint that ends with an empty column is skipped.
+    pub(super) fn columns(&mut self, prover: &Prover) -> Result<(), PlanError> {
+        let rot = self.machine.rotary;
+        let n = self.pos.len();
+        // The orientation each waypoint is planned around.
+        self.centre = (0..n)
+            .map(|g| self.fixed[g].map_or(self.n1[g], |(t, c)| orientation(rot, t, c)))
+            .collect();
+        let base: Vec<(usize, [(f64, f64); 2])> = (0..n)
+            .map(|g| {
+                let pair = match self.fixed[g] {
+                    Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
+                    None => ik_angles(rot, self.n1[g]),
+                };
+                (g, pair)
+            })
+            .collect();
+        self.offered = self.offer(prover, &base, true)?;
+        let open: Vec<usize> = (0..n).filter(|&g| self.live_count(g) == 0).collect();
+        self.cursor = vec![EXHAUSTED; n];
+        for &g in &open {
+            self.cursor[g] = 0;
+        }
+        self.probe(prover, &open)?;
+        let hard = self.refill(&open);
+        self.search_harder(prover, &hard)?;
+        for g in open {
+            if self.live_count(g) == 0 {
+                self.skip[g] = Some(self.why_skipped(g));
+            }
+        }
+        Ok(())
+    }
+
+    /// Pick the probes among the colliding waypoints `open` (each maximal
+    /// run of consecutive ones in a continuous run of the toolpath: its
+    /// ends and every [`PROBE_EVERY`]-th), ask their whole first rounds,
+    /// and give every other waypoint of a run the variants free at the
+    /// probes on either side of it as its plausible ones
+    /// ([`State::plausible`]).
+    fn probe(&mut self, prover: &Prover, open: &[usize]) -> Result<(), PlanError> {
+        let run_of = {
+            let mut r = vec![0u32; self.pos.len()];
+            for (k, run) in self.runs.iter().enumerate() {
+                r[run.clone()].fill(k as u32);
+            }
+            r
+        };
+        // Maximal runs of consecutive open waypoints.
+        let mut groups: Vec<Range<usize>> = Vec::new();
+        for &g in open {
+            match groups.last_mut() {
+                Some(r) if r.end == g && run_of[g - 1] == run_of[g] => r.end = g + 1,
+                _ => groups.push(g..g + 1),
+            }
+        }
+        let mut probes = Vec::new();
+        for r in &groups {
+            probes.extend(r.clone().step_by(PROBE_EVERY));
+            if (r.len() - 1) % PROBE_EVERY != 0 {
+                probes.push(r.end - 1);
+            }
+        }
+        // Every first-round variant of every probe, asked at once (a
+        // half-turn-symmetric head's pair as one query).
+        let firsts: Vec<Vec<[(f64, f64); 2]>> =
+            probes.par_iter().map(|&g| self.first_round(g)).collect();
+        let mut items: Vec<(usize, Vec<usize>, Vec<Axes>)> = Vec::new();
+        for (&g, round) in probes.iter().zip(&firsts) {
+            for (i, pair) in round.iter().enumerate().take(PROBED_ITEMS) {
+                let mut each = Vec::new();
+                for (sol, &tc) in pair.iter().enumerate() {
+                    if let Some(a) = self.feasible(g, tc) {
+                        each.push((2 * i + sol, a));
+                    }
+                }
+                if self.symmetric && !each.is_empty() {
+                    items.push((
+                        g,
+                        each.iter().map(|e| e.0).collect(),
+                        each.iter().map(|e| e.1).collect(),
+                    ));
+                } else {
+                    items.extend(each.into_iter().map(|(bit, a)| (g, vec![bit], vec![a])));
+                }
+            }
+        }
+        let asked: Vec<(Axes, u32)> = items.iter().map(|(g, _, a)| (a[0], cutoff(*g))).collect();
+        let hits = prover.poses(&asked)?;
+        for &g in &probes {
+            self.free_at[g] = 0;
+        }
+        for ((g, bits, configs), &hit) in items.iter().zip(&hits) {
+            self.offered[*g] = true;
+            for &a in &configs[1..] {
+                prover.same_as(&a, cutoff(*g), &configs[0]);
+            }
+            if !hit {
+                for &bit in bits {
+                    self.free_at[*g] |= 1u128 << bit;
+                }
+            }
+        }
+        // The probes' columns: their free variants, in order, up to the cap.
+        let cap = self.opts.max_configs;
+        for ((g, _, configs), &hit) in items.iter().zip(&hits) {
+            let pose = self.next_pose(*g);
+            for &a in configs {
+                if !hit && self.live_count(*g) < cap {
+                    self.push_config(*g, a, Status::Free, pose);
+                }
+            }
+        }
+        for &g in &probes {
+            self.cursor[g] = EXHAUSTED;
+            self.probed[g] = true;
+        }
+        // The others: bracketed by the probes on either side.
+        for r in &groups {
+            let mut last = r.start;
+            for g in r.clone() {
+                if self.probed[g] {
+                    last = g;
+                    continue;
+                }
+                let next = (g..r.end).find(|&h| self.probed[h]).unwrap_or(last);
+                self.free_at[g] = self.free_at[last] & self.free_at[next];
+            }
+        }
+        Ok(())
+    }
+
+    /// Is the variant `item` (`2 · item + solution`) of waypoint `g` worth
+    /// a path's trying: free at the probes on either side of it (or past
+    /// what the probes asked)?
+    fn plausible(&self, g: usize, item: usize) -> bool {
+        item >= 2 * PROBED_ITEMS || self.free_at[g] & (1u128 << item) != 0
+    }
+
+    /// Why waypoint `g`, with nothing left in its column, is skipped.
+    pub(super) fn why_skipped(&self, g: usize) -> Skip {
+        if self.offered[g] {
+            Skip::Residual
+        } else {
+            Skip::Unreachable
+        }
+    }
+
+    /// Waypoint `g`'s first round of variants, as IK pairs in the order
+    /// they are offered: its own, unsmoothed orientation first
+    /// (smoothing must not make a free waypoint collide), then one
+    /// pattern of samples for every waypoint (neighbours get matching
+    /// candidates, so the graph can keep the motion smooth).
+    fn first_round(&self, g: usize) -> Vec<[(f64, f64); 2]> {
+        let rot = self.machine.rotary;
+        let sampled = candidates::round(
+            self.centre[g],
+            0,
+            0,
+            self.opts.sampling,
+            self.opts.beta,
+            self.opts.alpha,
+        );
+        std::iter::once(self.n0[g])
+            .chain(sampled)
+            .map(|d| ik_angles(rot, d))
+            .collect()
+    }
+
+    /// Fill the windows of the lazily filled columns `which` up to the cap
+    /// with unchecked variants from their cursors (the implausible ones
+    /// enter too, [`Status::Unlikely`], but do not count). A column left
+    /// with nothing live and no variant to come has its implausible nodes
+    /// made plausible; returns those with none either (they need the
+    /// eager search).
+    pub(super) fn refill(&mut self, which: &[usize]) -> Vec<usize> {
+        let cap = self.opts.max_configs;
+        // The feasible configurations of the next items, in parallel (IK
+        // and axis ranges per variant), then entered in order.
+        type Next = (usize, Vec<Vec<(Axes, Status)>>, u32);
+        let next: Vec<Next> = which
+            .par_iter()
+            .filter(|&&g| self.cursor[g] != EXHAUSTED)
+            .map(|&g| {
+                let want = cap.saturating_sub(self.live_count(g));
+                let items = self.first_round(g);
+                let mut at = self.cursor[g] as usize;
+                let (mut got, mut count) = (Vec::new(), 0);
+                while at < items.len() && count < want {
+                    let mut c = Vec::new();
+                    for (sol, &tc) in items[at].iter().enumerate() {
+                        if let Some(a) = self.feasible(g, tc) {
+                            let bit = 2 * at + sol;
+                            let status = if self.plausible(g, bit) {
+                                count += 1;
+                                Status::Unknown
+                            } else {
+                                Status::Unlikely
+                            };
+                            c.push((a, status));
+                        }
+                    }
+                    got.push(c);
+                    at += 1;
+                }
+                let cursor = if at < items.len() {
+                    at as u32
+                } else {
+                    EXHAUSTED
+                };
+                (g, got, cursor)
+            })
+            .collect();
+        for (g, items, cursor) in next {
+            self.cursor[g] = cursor;
+            for configs in items {
+                self.offered[g] |= !configs.is_empty();
+                let mut pose = self.next_pose(g);
+                for (a, status) in configs {
+                    let room = status == Status::Unlikely || self.live_count(g) < cap;
+                    if room && self.push_config(g, a, status, pose) {
+                        pose += (!self.symmetric) as u32;
+                    }
+                }
+            }
+        }
+        let mut empty = Vec::new();
+        for &g in which {
+            if self.live_count(g) > 0 || self.cursor[g] != EXHAUSTED {
+                continue;
+            }
+            let mut promoted = false;
+            for n in &mut self.nodes[g] {
+                if n.status == Status::Unlikely {
+                    n.status = Status::Unknown;
+                    promoted = true;
+                }
+            }
+            if !promoted {
+                empty.push(g);
+            }
+        }
+        empty
+    }
+
+    /// Ask the unchecked nodes `asks`, `(waypoint, node, need)`: one query
+    /// per pose, at the largest `(margin, slope)` its asks need (the level
+    /// the beads to its path's neighbours ask of this end,
+    /// [`Prover::end_need`]); one that fails that is asked again at the
+    /// pose margin. Colliding nodes die and their windows refill. Returns
+    /// the waypoints whose nodes died.
+    pub(super) fn check_nodes(
+        &mut self,
+        prover: &Prover,
+        asks: &[(usize, usize, (f64, f64))],
+    ) -> Result<Vec<usize>, PlanError> {
+        // One query per (waypoint, pose), first node of the pose asks.
+        let mut group: HashMap<(usize, u32), usize> = HashMap::new();
+        let mut items: Vec<(Axes, u32)> = Vec::new();
+        let mut needs: Vec<(f64, f64)> = Vec::new();
+        let mut which: Vec<(usize, u32)> = Vec::new();
+        for &(g, j, need) in asks {
+            let pose = self.nodes[g][j].pose;
+            match group.get(&(g, pose)) {
+                Some(&q) => {
+                    needs[q] = (needs[q].0.max(need.0), needs[q].1.max(need.1));
+                }
+                None => {
+                    group.insert((g, pose), items.len());
+                    items.push((self.cols[g][j], cutoff(g)));
+                    needs.push(need);
+                    which.push((g, pose));
+                }
+            }
+        }
+        let hits = prover.poses_wide(&items, &needs)?;
+        let mut died = Vec::new();
+        for ((&(g, pose), &(a, c)), hit) in which.iter().zip(&items).zip(hits) {
+            let status = if hit { Status::Hit } else { Status::Free };
+            for (k, node) in self.nodes[g].iter_mut().enumerate() {
+                if node.pose == pose {
+                    node.status = status;
+                    if !hit && self.cols[g][k] != a {
+                        // A mirror or a winding: the same head geometry.
+                        prover.same_as(&self.cols[g][k], c, &a);
+                    }
+                }
+            }
+            if hit {
+                self.misses[g] = self.misses[g].saturating_add(1);
+                if died.last() != Some(&g) {
+                    died.push(g);
+                }
+            }
+        }
+        died.sort_unstable();
+        died.dedup();
+        Ok(died)
+    }
+
+    /// The eager search for waypoints whose columns hold nothing live:
+    /// wider rounds of variants, then every orientation the machine can
+    /// reach (5° apart), nearest first in shells of 30°, each asked until
+    /// the column holds a free configuration. Waypoints still without one
+    /// are left with empty columns (the caller skips them).
+    pub(super) fn search_harder(
+        &mut self,
+        prover: &Prover,
+        open: &[usize],
+    ) -> Result<(), PlanError> {
+        let rot = self.machine.rotary;
+        let mut open = open.to_vec();
+        // Rounds after the first, widened 10 % each.
+        let mut round = 1u32;
+        while !open.is_empty() {
+            let mut items = Vec::new();
+            for &g in &open {
+                let sampled = candidates::round(
+                    self.centre[g],
+                    0,
+                    round,
+                    self.opts.sampling,
+                    self.opts.beta,
+                    self.opts.alpha,
+                );
+                for d in sampled {
+                    items.push((g, ik_angles(rot, d)));
+                }
+            }
+            if items.is_empty() {
+                break; // Sampling exhausted.
+            }
+            for (k, o) in self
+                .offer_until_full(prover, &items)?
+                .into_iter()
+                .enumerate()
+            {
+                self.offered[items[k].0] |= o;
+            }
+            open.retain(|&g| self.live_count(g) == 0);
+            round += 1;
+        }
+        // Last resort before giving a waypoint up: every reachable
+        // orientation, nearest first, in shells of widening angle.
+        if !open.is_empty() {
+            let m = self.machine;
+            let top = m.tilt.min.abs().max(m.tilt.max.abs()).to_radians();
+            let grid = candidates::reachable_directions(top, self.opts.exhaustive_step);
+            let dirs: Vec<[f64; 3]> = grid
+                .iter()
+                .map(|p| orientation(rot, p[0].0, p[0].1))
+                .collect();
+            let shell = 30f64.to_radians();
+            let mut lo = 0.0;
+            while !open.is_empty() && lo <= std::f64::consts::PI {
+                let hi = lo + shell;
+                let mut items = Vec::new();
+                for &g in &open {
+                    let c = self.centre[g];
+                    let mut near: Vec<(f64, usize)> = dirs
+                        .iter()
+                        .enumerate()
+                        .map(|(k, d)| {
+                            let cos = (d[0] * c[0] + d[1] * c[1] + d[2] * c[2]).clamp(-1.0, 1.0);
+                            (cos.acos(), k)
+                        })
+                        .filter(|&(a, _)| a >= lo && a < hi)
+                        .collect();
+                    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
+                }
+                for (k, o) in self
+                    .offer_until_full(prover, &items)?
+                    .into_iter()
+                    .enumerate()
+                {
+                    self.offered[items[k].0] |= o;
+                }
+                open.retain(|&g| self.live_count(g) == 0);
+                lo = hi;
+            }
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::*;
+    use crate::collide::cpu::CpuBackend;
+    use crate::scene::{Scene, SceneConfig};
+
+    /// Offering a waypoint's candidates in waves, stopping once its column
+    /// is full, keeps the very configurations that offering them all at
+    /// once keeps (the first free ones, in order, up to the cap), and
+    /// asks fewer queries.
+    #[test]
+    fn offering_until_full_keeps_the_same_columns_with_fewer_queries() {
+        let job = crate::default_job::job();
+        let scene = Scene::build(
+            &job.toolpath,
+            &job.head,
+            &job.platform,
+            &SceneConfig::default(),
+        )
+        .unwrap();
+        let machine = Machine::default();
+        let opts = PlanOptions::default();
+        let backend = CpuBackend::new(&scene);
+        let top = machine
+            .tilt
+            .min
+            .abs()
+            .max(machine.tilt.max.abs())
+            .to_radians();
+        let grid = candidates::reachable_directions(top, opts.exhaustive_step);
+        // Every reachable direction for every 40th waypoint: most are free
+        // on this part, far more than the cap keeps.
+        let n = scene.waypoint_queries.len();
+        let items: Vec<(usize, [(f64, f64); 2])> = (0..n)
+            .step_by(40)
+            .flat_map(|g| grid.iter().map(move |d| (g, *d)))
+            .collect();
+        let columns = |waves: bool| {
+            let mut st = State::new(&scene, &job.toolpath, &machine, &opts);
+            let prover = Prover::new(&machine, &backend, head_reach(&scene), 0.05, 0.3);
+            let offered = if waves {
+                st.offer_until_full(&prover, &items).unwrap()
+            } else {
+                st.offer(&prover, &items, false).unwrap()
+            };
+            let mut any = vec![false; n];
+            for (it, o) in items.iter().zip(offered) {
+                any[it.0] |= o;
+            }
+            (st.cols, any, prover.queries())
+        };
+        let (all, all_offered, all_queries) = columns(false);
+        let (waved, waved_offered, waved_queries) = columns(true);
+        assert!(
+            all.iter().filter(|c| c.len() == opts.max_configs).count() > 10,
+            "full columns to compare"
+        );
+        assert_eq!(waved, all);
+        assert_eq!(waved_offered, all_offered);
+        assert!(
+            waved_queries * 4 < all_queries,
+            "{waved_queries} queries in waves, {all_queries} at once"
+        );
+    }
+}
