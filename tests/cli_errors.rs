@@ -140,6 +140,22 @@ fn face_index_out_of_range() {
 }
 
 #[test]
+fn face_with_two_vertices_in_obj() {
+    // tobj reads `f 2 3` as a line and would drop it without a word.
+    let d = toolpath();
+    fs::write(
+        d.path().join("tp/layer/1.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nf 2 3\n",
+    )
+    .unwrap();
+    assert_user_error(
+        d.path(),
+        &[&tp_arg(&d)],
+        &["1.obj:5:", "face has 2 vertices, needs at least 3"],
+    );
+}
+
+#[test]
 fn nan_vertex_in_obj() {
     let d = toolpath();
     fs::write(

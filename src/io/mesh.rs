@@ -36,21 +36,49 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, InputError> {
     Ok(mesh)
 }
 
-/// OBJ: checked line by line first (so errors carry line numbers), then
-/// parsed by `tobj`.
+/// OBJ: parsed by `tobj`; when it refuses the file, yields a coordinate
+/// that is not finite or would drop a face of fewer than three vertices
+/// (tobj reads `f 1 2` as a line), the line-level check finds the line to
+/// name. A valid file is parsed once: checking every file line by line
+/// first parsed every number twice (dome_cut's 169 layers: its toolpath
+/// load 0.61 s with it).
 fn load_obj(path: &Path) -> Result<Mesh, InputError> {
     let text = read_to_string(path)?;
-    check_obj(path, &text)?;
+    if has_short_face(&text) {
+        check_obj(path, &text)?;
+    }
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
+    let parsed = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
         Err(tobj::LoadError::GenericFailure)
-    })
-    .map_err(|e| InputError::file(path, format!("invalid OBJ ({e}): re-export the mesh")))?;
+    });
+    let models = match parsed {
+        Ok((models, _))
+            if models
+                .iter()
+                .all(|m| m.mesh.positions.iter().all(|x| x.is_finite())) =>
+        {
+            models
+        }
+        Ok(_) => {
+            check_obj(path, &text)?;
+            return Err(InputError::file(
+                path,
+                "a vertex coordinate is not a finite number: re-export the mesh",
+            ));
+        }
+        Err(e) => {
+            check_obj(path, &text)?;
+            return Err(InputError::file(
+                path,
+                format!("invalid OBJ ({e}): re-export the mesh"),
+            ));
+        }
+    };
     let mut mesh = Mesh::default();
     for m in models {
         let base = mesh.vertices.len() as u32;
@@ -64,6 +92,15 @@ fn load_obj(path: &Path) -> Result<Mesh, InputError> {
         );
     }
     Ok(mesh)
+}
+
+/// Is there an `f` statement with fewer than three vertex references?
+/// (Counts tokens only: no number is parsed.)
+fn has_short_face(text: &str) -> bool {
+    text.lines().any(|l| {
+        let mut it = l.split_ascii_whitespace();
+        it.next() == Some("f") && it.take(3).count() < 3
+    })
 }
 
 /// Line-level validation of the OBJ statements we use (`v`, `f`).
