@@ -859,11 +859,17 @@ impl<'a> State<'a> {
             .collect();
         let hit = prover.poses_at(&items, prover.margin)?;
         let edges: Vec<usize> = self.runs.iter().flat_map(|r| r.start + 1..r.end).collect();
+        // A bead the search proved joins two of its columns' configurations:
+        // only then is it worth splitting to look it up.
+        let planned = |g: usize, a: &Axes| self.cols[g].iter().any(|b| motion::same_pose(a, b));
         let known: Vec<Option<bool>> = edges
             .par_iter()
             .map(|&g| {
                 if hit[g - 1] || hit[g] {
                     return Some(true);
+                }
+                if !planned(g - 1, &axes[g - 1]) || !planned(g, &axes[g]) {
+                    return None;
                 }
                 let proven: Option<Vec<bool>> = self
                     .print_moves(g, &axes[g - 1], &axes[g])

@@ -240,6 +240,11 @@ fn pose_key(a: &Axes, cutoff: u32) -> PoseKey {
     ]
 }
 
+/// Are `a` and `b` the same pose on the program's grid (C modulo a turn)?
+pub fn same_pose(a: &Axes, b: &Axes) -> bool {
+    pose_key(a, 0) == pose_key(b, 0)
+}
+
 /// [`pose_key`]'s value.
 type PoseKey = [i32; 6];
 
