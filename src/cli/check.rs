@@ -9,7 +9,7 @@ use maamplan::io::plan_csv::read_plan;
 use maamplan::job::Job;
 use maamplan::kinematics::{Axes, Machine};
 use maamplan::plan::layer_reading::NearestLayer;
-use maamplan::plan::motion::{MoveSpec, Prover};
+use maamplan::plan::motion::Prover;
 use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
 use serde_json::json;
 use std::path::PathBuf;
@@ -245,16 +245,10 @@ fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) ->
         if rows[g].travel_before {
             continue;
         }
-        let mut from = a;
         let layer = job.scene.waypoint_layers[g] as usize;
-        for to in reader.split_bead(m, &a, &b, m.tip_tolerance, layer) {
-            specs.push(MoveSpec {
-                from,
-                to,
-                cutoff: g as u32,
-            });
+        for mv in reader.bead_moves(m, &a, &b, m.tip_tolerance, layer, g as u32) {
+            specs.push(mv);
             owner.push(g);
-            from = to;
         }
     }
     let hits = prover.moves(&specs)?;

@@ -9,10 +9,15 @@
 //! to a waypoint of the layer above than to either end of its bead, and
 //! such a reader would then check the move against the rest of the
 //! current layer, material not printed yet. [`NearestLayer`] answers the
-//! question so that split points can be placed where they read right.
+//! question so that split points can be placed where they read right, and
+//! where no split can (a bead that turns the head a long way bows enough
+//! to need short pieces, and its middle may read as the layer above over
+//! more than a piece's length), so that the pieces that read wrong are
+//! proved against what such a reader assumes exists: every layer below
+//! the one they read as.
 //!
 
-use super::motion::tip_subdivision_where;
+use super::motion::{tip_subdivision_where, MoveSpec};
 use crate::kinematics::{Axes, Machine};
 use crate::toolpath::Toolpath;
 use rstar::primitives::GeomWithData;
@@ -51,11 +56,51 @@ impl NearestLayer {
     }
 
     /// The pieces of the extruding move `a → b` of `layer` as the program
-    /// writes them: [`tip_subdivision_where`] with split tips that read as
-    /// `layer`. The planner proves, the program writes and `check --plan`
-    /// re-checks exactly these.
-    pub fn split_bead(&self, m: &Machine, a: &Axes, b: &Axes, tol: f64, layer: usize) -> Vec<Axes> {
-        tip_subdivision_where(m, a, b, tol, |p| self.reads_as(p, layer))
+    /// writes them, each with the material it is proved against:
+    /// [`tip_subdivision_where`] with split tips that read as `layer`; a
+    /// piece is proved against the material of stamps below `cutoff`, or
+    /// when its end tip still reads as a later layer, against every layer
+    /// below that one too ([`Self::reader_cutoff`]). The planner proves,
+    /// the program writes and `check --plan` re-checks exactly these.
+    pub fn bead_moves(
+        &self,
+        m: &Machine,
+        a: &Axes,
+        b: &Axes,
+        tol: f64,
+        layer: usize,
+        cutoff: u32,
+    ) -> Vec<MoveSpec> {
+        let mut from = *a;
+        let pts = tip_subdivision_where(m, a, b, tol, |p| self.reads_as(p, layer));
+        let n = pts.len();
+        pts.into_iter()
+            .enumerate()
+            .map(|(k, to)| {
+                let reads_right = k + 1 == n || self.reads_as(m.tip(&to), layer);
+                let cutoff = if reads_right {
+                    cutoff
+                } else {
+                    self.reader_cutoff(m.tip(&to), cutoff)
+                };
+                let mv = MoveSpec { from, to, cutoff };
+                from = to;
+                mv
+            })
+            .collect()
+    }
+
+    /// The cutoff a move ending at `p` needs to satisfy a reader that takes
+    /// the layer of the waypoint nearest to `p` and checks against every
+    /// layer below it: `cutoff`, raised to the stamp past that layer's
+    /// predecessors (waypoints are numbered layer by layer).
+    pub fn reader_cutoff(&self, p: [f64; 3], cutoff: u32) -> u32 {
+        let Some(g) = self.nearest(p) else {
+            return cutoff;
+        };
+        let layer = self.layer_of[g];
+        let first = self.layer_of.partition_point(|&k| k < layer);
+        cutoff.max(first as u32 + 1)
     }
 
     /// Does `p` read as `layer`: is a waypoint of `layer` at least as near
@@ -87,6 +132,24 @@ impl NearestLayer {
         best.map(|(_, g)| g as usize)
     }
 
+    /// The waypoint of `layer` nearest to `p` (global index; the earliest
+    /// of equals). It walks out from `p`: meant for a layer that has a
+    /// waypoint near.
+    pub fn nearest_in(&self, p: [f64; 3], layer: usize) -> Option<usize> {
+        let mut best: Option<(f64, u32)> = None;
+        for (site, d2) in self.tree.nearest_neighbor_iter_with_distance_2(p) {
+            match best {
+                Some((bd, _)) if d2 > bd => break,
+                Some((_, bj)) if site.data >= bj => {}
+                _ if self.layer_of[site.data as usize] as usize == layer => {
+                    best = Some((d2, site.data))
+                }
+                _ => {}
+            }
+        }
+        best.map(|(_, g)| g as usize)
+    }
+
     /// The layer of waypoint `g`.
     pub fn layer(&self, g: usize) -> usize {
         self.layer_of[g] as usize
@@ -109,5 +172,52 @@ mod tests {
         // A tie counts for the asked layer.
         let tie = NearestLayer::new(&[[0.0; 3], [2.0, 0.0, 0.0]], &[0, 1]);
         assert!(tie.reads_as([1.0, 0.0, 0.0], 0) && tie.reads_as([1.0, 0.0, 0.0], 1));
+    }
+
+    #[test]
+    fn a_point_read_as_a_later_layer_needs_every_layer_below_it() {
+        // Layers 0 and 1 of two waypoints each, layer 2 of one.
+        let pos = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.3],
+            [1.0, 0.0, 0.3],
+            [0.5, 0.0, 0.6],
+        ];
+        let near = NearestLayer::new(&pos, &[0, 0, 1, 1, 2]);
+        // Reads as layer 1: material of waypoints 0..=1 (stamps 1, 2).
+        assert_eq!(near.reader_cutoff([0.9, 0.0, 0.3], 1), 3);
+        // Reads as layer 2: layers 0 and 1 (stamps up to 4).
+        assert_eq!(near.reader_cutoff([0.5, 0.0, 0.55], 2), 5);
+        assert_eq!(near.nearest_in([0.5, 0.0, 0.55], 1), Some(2));
+        assert_eq!(near.nearest_in([0.5, 0.0, 0.55], 2), Some(4));
+        // An earlier layer asks for nothing more.
+        assert_eq!(near.reader_cutoff([0.0, 0.0, 0.0], 4), 4);
+    }
+
+    /// A bead through a middle that reads as the layer above, over more
+    /// than a piece's length: the pieces that end there are proved against
+    /// the whole of the bead's own layer, the rest at the given cutoff.
+    #[test]
+    fn bead_pieces_that_read_as_the_layer_above_take_its_cutoff() {
+        let m = Machine::default();
+        let tc = (-30f64.to_radians(), 0.0);
+        let at = |p: [f64; 3], c: f64| m.axes_at(p, (tc.0, c.to_radians()));
+        let (pa, pb) = ([20.0, 0.0, 10.0], [21.2, 0.0, 10.0]);
+        let (a, b) = (at(pa, 0.0), at(pb, 40.0));
+        // Layer 0: the bead's two ends and one more far away; layer 1: one
+        // waypoint 0.3 above the bead's middle.
+        let pos = [pa, pb, [40.0, 0.0, 10.0], [20.6, 0.0, 10.3]];
+        let near = NearestLayer::new(&pos, &[0, 0, 0, 1]);
+        let moves = near.bead_moves(&m, &a, &b, 0.05, 0, 1);
+        assert!(moves.len() > 2, "the bead is split");
+        assert_eq!(moves.last().unwrap().to, b);
+        let mut raised = 0;
+        for mv in &moves {
+            let reads_up = !near.reads_as(m.tip(&mv.to), 0);
+            assert_eq!(mv.cutoff, if reads_up { 4 } else { 1 });
+            raised += reads_up as usize;
+        }
+        assert!(raised > 0, "some split tip reads as layer 1");
     }
 }

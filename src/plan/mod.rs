@@ -524,21 +524,9 @@ impl<'a> State<'a> {
     fn print_moves(&self, g: usize, a: &Axes, b: &Axes) -> Vec<MoveSpec> {
         let mut b = *b;
         b.c = self.unwound(a.c, b.c);
-        let mut from = *a;
         let (m, layer) = (self.machine, self.layer_of[g]);
         self.reader
-            .split_bead(m, a, &b, m.tip_tolerance, layer)
-            .into_iter()
-            .map(|to| {
-                let mv = MoveSpec {
-                    from,
-                    to,
-                    cutoff: cutoff(g - 1),
-                };
-                from = to;
-                mv
-            })
-            .collect()
+            .bead_moves(m, a, &b, m.tip_tolerance, layer, cutoff(g - 1))
     }
 
     fn unwound(&self, prev: f64, c: f64) -> f64 {

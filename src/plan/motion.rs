@@ -137,11 +137,23 @@ pub fn tip_subdivision(m: &Machine, a: &Axes, b: &Axes, tol: f64) -> Vec<Axes> {
 /// split tip lands where `fits` refuses it.
 const EXTRA_PIECES: usize = 8;
 
+/// Fractions of the bead a split tip may take when even splits do not fit
+/// (see [`tip_subdivision_where`]), per piece of the smallest split.
+const UNEVEN_STEPS: usize = 16;
+
+/// The finest grid an uneven split searches (it costs up to the grid
+/// times the pieces in [`tip_deviation_bound`] calls).
+const MAX_UNEVEN_STEPS: usize = 1024;
+
 /// [`tip_subdivision`] with a say over where split tips land: of the
 /// piece counts from the smallest that keeps `tol` up to
 /// [`EXTRA_PIECES`] more, the first whose every split tip (part frame, as
-/// rounded) `fits`; the smallest when none does. The planner passes "reads
-/// as the bead's own layer" (see [`super::layer_reading`]).
+/// rounded) `fits`. When no even split does (a region that does not fit
+/// around the bead's middle, say, where an even split always puts a tip),
+/// an uneven one: from the start, each split tip at the farthest fraction
+/// on a fine grid that `fits` and keeps the piece within `tol`. The
+/// smallest even split when that fails too. The planner passes "reads as
+/// the bead's own layer" (see [`super::layer_reading`]).
 pub fn tip_subdivision_where(
     m: &Machine,
     a: &Axes,
@@ -186,7 +198,51 @@ pub fn tip_subdivision_where(
     (n0 + 1..=n0 + EXTRA_PIECES)
         .map(split)
         .find(|pts| within(pts) && fit(pts))
+        .or_else(|| {
+            uneven_split(
+                m,
+                a,
+                b,
+                tol,
+                (n0 * UNEVEN_STEPS).min(MAX_UNEVEN_STEPS),
+                &fits,
+            )
+        })
         .unwrap_or(smallest)
+}
+
+/// The uneven split of [`tip_subdivision_where`] on a grid of `steps`
+/// fractions: greedy, each split tip as far along as the tolerance and
+/// `fits` allow; `None` when some piece cannot move on.
+fn uneven_split(
+    m: &Machine,
+    a: &Axes,
+    b: &Axes,
+    tol: f64,
+    steps: usize,
+    fits: &impl Fn([f64; 3]) -> bool,
+) -> Option<Vec<Axes>> {
+    let (pa, pb) = (m.tip(a), m.tip(b));
+    let at = |j: usize| -> Axes {
+        if j == steps {
+            return *b;
+        }
+        let s = j as f64 / steps as f64;
+        let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
+        m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
+    };
+    let mut pts = Vec::new();
+    let (mut from, mut i) = (*a, 0);
+    while i < steps {
+        let next = (i + 1..=steps).rev().find_map(|j| {
+            let q = at(j);
+            (tip_deviation_bound(m, &from, &q) <= tol && (j == steps || fits(m.tip(&q))))
+                .then_some((j, q))
+        })?;
+        (i, from) = next;
+        pts.push(from);
+    }
+    Some(pts)
 }
 
 /// One joint-linear move to prove: from `from` to `to` with the material
@@ -1275,5 +1331,40 @@ mod tests {
         assert!(moved[..moved.len() - 1].iter().all(|q| fits(m.tip(q))));
         // Nowhere fits: the smallest split.
         assert_eq!(tip_subdivision_where(&m, &a, &b, 0.05, |_| false), plain);
+    }
+
+    /// A refused band around the bead's middle catches a tip of every
+    /// even split: the split tips go uneven, around the band.
+    #[test]
+    fn subdivision_goes_uneven_around_a_refused_middle() {
+        let m = Machine::default();
+        let a = axes(&m, [30.0, 10.0, 50.0], -20.0, 10.0);
+        let b = axes(&m, [30.6, 10.2, 50.1], -20.0, 30.0);
+        let (pa, pb) = (m.tip(&a), m.tip(&b));
+        let u = |p: [f64; 3]| {
+            let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
+            ((p[0] - pa[0]) * seg[0] + (p[1] - pa[1]) * seg[1] + (p[2] - pa[2]) * seg[2])
+                / (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2])
+        };
+        // Every even split of n pieces has a tip within 1/(2n) of the
+        // middle (0 for even n): refuse a little more than the widest.
+        let n0 = tip_subdivision(&m, &a, &b, 0.05).len();
+        let widest = (n0..=n0 + EXTRA_PIECES)
+            .map(|n| if n % 2 == 0 { 0.0 } else { 0.5 / n as f64 })
+            .fold(0.0, f64::max);
+        let half = 1.02 * widest;
+        let fits = |p: [f64; 3]| (u(p) - 0.5).abs() >= half;
+        for n in n0..=n0 + EXTRA_PIECES {
+            let refused = (1..n).any(|k| (k as f64 / n as f64 - 0.5).abs() < half);
+            assert!(refused, "an even split of {n} pieces would fit");
+        }
+        let moved = tip_subdivision_where(&m, &a, &b, 0.05, fits);
+        assert_eq!(*moved.last().unwrap(), b);
+        assert!(moved[..moved.len() - 1].iter().all(|q| fits(m.tip(q))));
+        let mut prev = a;
+        for q in &moved {
+            assert!(tip_deviation_bound(&m, &prev, q) <= 0.05);
+            prev = *q;
+        }
     }
 }

@@ -4,7 +4,7 @@
 //!
 //! A program is a list of [`Step`]s. Printing a section is a run of
 //! [`MoveKind::Print`] moves (each bead segment split by
-//! [`NearestLayer::split_bead`] where joint-linear interpolation would bow the tip
+//! [`NearestLayer::bead_moves`] where joint-linear interpolation would bow the tip
 //! off the bead); getting from one section to the next (or across a break,
 //! or at the start and end) is a [`Travel`]: retract, lift to a safe
 //! height, tool change if the next layer needs the other extruder, travel
@@ -433,18 +433,23 @@ impl Assembly<'_> {
                     pending.push(self.pending(prog.steps.len(), &t, z_run));
                     prog.steps.push(Step::Travel(t));
                 } else {
-                    let pts = self
-                        .reader
-                        .split_bead(m, &at, &b, self.tip_tolerance, sec.layer);
+                    let pts = self.reader.bead_moves(
+                        m,
+                        &at,
+                        &b,
+                        self.tip_tolerance,
+                        sec.layer,
+                        prev.g as u32 + 1,
+                    );
                     let n = pts.len();
-                    for (k, to) in pts.into_iter().enumerate() {
+                    for (k, mv) in pts.into_iter().enumerate() {
                         let f = (k + 1) as f64 / n as f64;
                         prog.steps.push(Step::Move(Move {
                             kind: MoveKind::Print,
-                            to,
+                            to: mv.to,
                             e: round_written(e + f * (s.e - e)),
                             feed: sec.tool.feed,
-                            cutoff: prev.g as u32 + 1,
+                            cutoff: mv.cutoff,
                             waypoint: (k + 1 == n).then_some(s.g),
                             offset: sec.tool.offset,
                         }));
