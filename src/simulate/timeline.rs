@@ -16,6 +16,12 @@
 //! except the last one's — the bead the nozzle is laying, which the
 //! planner's stamps leave out too; during any other move all printed
 //! material exists.
+//!
+//! A line that splits a bead can end nearer to a waypoint of the layer
+//! above (or below) than to either end of its bead. Such a line is not
+//! printing that layer: where the lines of one extruding run read as
+//! layer `L`, then as other layers, then as `L` again, the lines between
+//! read as `L` and their ends as the nearest waypoint of `L` ([`blips`]).
 
 use crate::io::gcode_read::{axes_of, GcodeMove};
 use crate::kinematics::Machine;
@@ -23,6 +29,10 @@ use crate::plan::layer_reading::NearestLayer;
 
 /// Longest run of waypoints one extruding move may print at once.
 const MAX_RUN: usize = 10_000;
+
+/// Most lines in a row [`blips`] reads as the layer around them: more than
+/// one bead is ever split into.
+const MAX_BLIP: usize = 8192;
 
 /// When each waypoint is printed and what exists during each move.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +60,8 @@ impl Timeline {
         let mut count = 0u32;
         let mut last_layer = None;
         let half_width = 0.5 * m.extrusion.width;
-        for mv in moves {
+        let reads = blips(m, reader, moves);
+        for (i, mv) in moves.iter().enumerate() {
             if !mv.extrudes() || pos.is_empty() {
                 cutoffs.push(count + 1);
                 layers.push(last_layer);
@@ -58,7 +69,12 @@ impl Timeline {
             }
             cutoffs.push(count);
             let (pa, pb) = (m.tip(&axes_of(&mv.from)), m.tip(&axes_of(&mv.to)));
-            let (Some(a), Some(b)) = (reader.nearest(pa), reader.nearest(pb)) else {
+            let near = |p, read: Option<usize>| match read {
+                Some(l) => reader.nearest_in(p, l),
+                None => reader.nearest(p),
+            };
+            let start_read = i.checked_sub(1).and_then(|j| reads[j]);
+            let (Some(a), Some(b)) = (near(pa, start_read), near(pb, reads[i])) else {
                 layers.push(last_layer);
                 continue;
             };
@@ -113,6 +129,44 @@ impl Timeline {
             _ => u32::MAX,
         }
     }
+}
+
+/// Per move: the layer its end reads as when that is not the layer of the
+/// waypoint nearest to it — lines of one extruding run that read as other
+/// layers between lines that read as `L` read as `L`; `None` elsewhere.
+fn blips(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Vec<Option<usize>> {
+    let mut fixed = vec![None; moves.len()];
+    // In an extruding run: (the first line after the last one that read as
+    // the run's layer, that layer); a run reads first as where it starts.
+    let mut anchor: Option<(usize, usize)> = None;
+    let layer_at = |axes| {
+        reader
+            .nearest(m.tip(&axes_of(axes)))
+            .map(|g| reader.layer(g))
+    };
+    for (i, mv) in moves.iter().enumerate() {
+        if !mv.extrudes() {
+            anchor = None;
+            continue;
+        }
+        if anchor.is_none() {
+            anchor = layer_at(&mv.from).map(|l| (i, l));
+        }
+        let (Some((from, run)), Some(layer)) = (anchor, layer_at(&mv.to)) else {
+            anchor = None;
+            continue;
+        };
+        anchor = if layer == run {
+            fixed[from..i].iter_mut().for_each(|f| *f = Some(run));
+            Some((i + 1, run))
+        } else if i + 1 - from > MAX_BLIP {
+            // Another layer for longer than a bead's pieces: a real change.
+            Some((i + 1, layer))
+        } else {
+            anchor
+        };
+    }
+    fixed
 }
 
 fn distance_to_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -176,5 +230,29 @@ mod tests {
         assert_eq!(t.stamp(4), 2); // waypoint 3
         assert_eq!(t.stamp(6), u32::MAX); // waypoint 5
         assert_eq!(t.layers, vec![Some(0); 5]);
+    }
+
+    #[test]
+    fn a_split_point_nearer_the_layer_above_prints_nothing_of_it() {
+        // Layer 0: waypoints 0 and 1, 1.2 mm apart, and 2 far on; layer 1:
+        // waypoint 3, 0.3 mm above the middle of the bead from 0 to 1.
+        let pos = [
+            [0.0, 0.0, 0.0],
+            [1.2, 0.0, 0.0],
+            [2.4, 0.0, 0.0],
+            [0.6, 0.0, 0.3],
+        ];
+        let reader = NearestLayer::new(&pos, &[0, 0, 0, 1]);
+        let m = Machine::default();
+        let moves = [
+            mv([0.0, 0.0, 0.0], [0.6, 0.0, 0.0], 0.3), // ends nearest to 3
+            mv([0.6, 0.0, 0.0], [1.2, 0.0, 0.0], 0.3),
+            mv([1.2, 0.0, 0.0], [2.4, 0.0, 0.0], 0.6),
+        ];
+        assert_eq!(reader.nearest([0.6, 0.0, 0.0]), Some(3));
+        let t = Timeline::new(&m, &reader, &pos, &moves);
+        assert_eq!(t.printed, vec![Some(0), Some(1), Some(2), None]);
+        assert_eq!(t.layers, vec![Some(0); 3]);
+        assert_eq!(t.cutoffs, vec![0, 1, 2]);
     }
 }
