@@ -178,6 +178,19 @@ pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
     }
 }
 
+/// The default job's scene at the default settings (for tests).
+#[cfg(test)]
+pub(crate) fn scene() -> crate::scene::Scene {
+    let job = job();
+    crate::scene::Scene::build(
+        &job.toolpath,
+        &job.head,
+        &job.platform,
+        &crate::scene::SceneConfig::default(),
+    )
+    .unwrap()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -12,7 +12,7 @@ use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
-use maamplan::scene::{HeadConfig, Query, Scene, SceneConfig};
+use maamplan::scene::{GpuQuery, HeadConfig, Query, Scene, SceneConfig};
 
 fn cfg(clearance: f32) -> SceneConfig {
     SceneConfig {
@@ -471,21 +471,36 @@ fn slabs_skip_only_material_clear_of_the_head() {
 
 /// simple_curve with every nozzle tilted 50° about x: the head's flank
 /// lies a few tenths of a millimetre over the layers.
+/// Waypoint query `base` (the `k`-th asked) at one of the margins and
+/// slopes the planner's proofs ask, in turn.
+fn as_the_planner_asks(k: usize, base: &Query) -> GpuQuery {
+    let (margin, slope) = [(0.05, 0.0), (0.2, 0.0), (0.15, 0.01)][k % 3];
+    Query {
+        margin,
+        slope,
+        ..*base
+    }
+    .to_gpu()
+}
+
+/// Part-frame point `p` in `q`'s head frame, in f64.
+fn to_head64(q: &GpuQuery, p: [f32; 3]) -> [f64; 3] {
+    let d: [f64; 3] = std::array::from_fn(|k| p[k] as f64 - q.rows[k][3] as f64);
+    std::array::from_fn(|i| (0..3).map(|j| q.rows[i][j] as f64 * d[j]).sum())
+}
+
+/// The clearance `q` asks of triangle `tri` (head frame, f64): its margin
+/// grown by its slope at the triangle's farthest corner from the tip.
+fn asked_of(q: &GpuQuery, tri: &[[f64; 3]; 3]) -> f64 {
+    let reach = tri
+        .iter()
+        .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
+        .fold(0.0, f64::max);
+    q.margin as f64 + q.slope as f64 * reach
+}
+
 fn tilted_simple_curve() -> maamplan::job::Job {
-    let d = data();
-    maamplan::job::Job::load(&maamplan::job::JobSpec {
-        toolpath: Some(d.join("simple_curve")),
-        head: Some(d.join("extruderHead.obj")),
-        platform: Some(d.join("printingPlatform.obj")),
-        placement: maamplan::io::Placement {
-            y_up: false,
-            offset: [0.0, 0.0, 40.5],
-        },
-        clearance: 0.3,
-        tilt_deg: Some(50.0),
-        ..Default::default()
-    })
-    .unwrap()
+    simple_curve_job_tilted(Some(50.0))
 }
 
 /// The head's triangles in f64 and their boxes.
@@ -550,17 +565,8 @@ fn node_hull_planes_settle_only_material_clear_of_the_head() {
     let head = f64_head(scene);
     let (mut settled, mut checked) = (0usize, 0usize);
     for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(1499) {
-        let (margin, slope) = [(0.05, 0.0), (0.2, 0.0), (0.15, 0.01)][k % 3];
-        let q = Query {
-            margin,
-            slope,
-            ..*base
-        }
-        .to_gpu();
-        let to_head64 = |p: [f32; 3]| -> [f64; 3] {
-            let d: [f64; 3] = std::array::from_fn(|k| p[k] as f64 - q.rows[k][3] as f64);
-            std::array::from_fn(|i| (0..3).map(|j| q.rows[i][j] as f64 * d[j]).sum())
-        };
+        let q = as_the_planner_asks(k, base);
+        let to_head64 = |p| to_head64(&q, p);
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let node = scene.part_nodes[i];
@@ -588,11 +594,7 @@ fn node_hull_planes_settle_only_material_clear_of_the_head() {
                             continue;
                         }
                         let tri = [t.v0, t.v1, t.v2].map(to_head64);
-                        let reach = tri
-                            .iter()
-                            .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-                            .fold(0.0, f64::max);
-                        let need = margin as f64 + slope as f64 * reach;
+                        let need = asked_of(&q, &tri);
                         let near = head_distance64(&tri, &head, need);
                         let a = [t.v0, t.v1, t.v2].map(|v| to_head(&q, v))[0];
                         assert!(
@@ -635,18 +637,8 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
     let head = f64_head(scene);
     let (mut planes, mut well_clear) = (0usize, 0usize);
     for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(211) {
-        // The margins and slopes the planner's proofs ask.
-        let (margin, slope) = [(0.05, 0.0), (0.2, 0.0), (0.15, 0.01)][k % 3];
-        let q = Query {
-            margin,
-            slope,
-            ..*base
-        }
-        .to_gpu();
-        let to_head64 = |p: [f32; 3]| -> [f64; 3] {
-            let d: [f64; 3] = std::array::from_fn(|k| p[k] as f64 - q.rows[k][3] as f64);
-            std::array::from_fn(|i| (0..3).map(|j| q.rows[i][j] as f64 * d[j]).sum())
-        };
+        let q = as_the_planner_asks(k, base);
+        let to_head64 = |p| to_head64(&q, p);
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let node = scene.part_nodes[i];
@@ -683,11 +675,7 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
                 // triangle, and whether every head triangle keeps it (and
                 // keeps it with 0.1 mm to spare).
                 let tri = [t.v0, t.v1, t.v2].map(to_head64);
-                let reach = tri
-                    .iter()
-                    .map(|v| (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt())
-                    .fold(0.0, f64::max);
-                let need = margin as f64 + slope as f64 * reach;
+                let need = asked_of(&q, &tri);
                 let spare = need + 0.1;
                 let near = head_distance64(&tri, &head, spare);
                 if settled {

@@ -60,14 +60,14 @@ fn plan_of(tp: &Toolpath, head: &Mesh, platform: &Mesh, m: &Machine) -> (Scene, 
     (scene, p)
 }
 
-/// Tips of every G-code line of the written program.
-fn written_tips(m: &Machine, p: &Plan) -> Vec<[f64; 3]> {
+/// How near any G-code line of `p`'s written program puts the tip to `at`.
+fn nearest_written_tip(m: &Machine, p: &Plan, at: [f64; 3]) -> f64 {
     let text = write_gcode(m, &p.program, &GcodeHeader::default());
     read_program(&text, m)
         .unwrap()
         .iter()
-        .map(|mv| m.tip(&axes_of(&mv.to)))
-        .collect()
+        .map(|mv| dist(m.tip(&axes_of(&mv.to)), at))
+        .fold(f64::INFINITY, f64::min)
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -122,11 +122,7 @@ fn a_waypoint_every_orientation_of_which_collides_is_never_visited() {
     assert_eq!(p.plan.residual_collisions, 0);
     assert_eq!(p.plan.colliding_edges, 0);
     // No line of the written program puts the tip there.
-    let at = p.waypoints[g].p;
-    let nearest = written_tips(&m, &p)
-        .into_iter()
-        .map(|t| dist(t, at))
-        .fold(f64::INFINITY, f64::min);
+    let nearest = nearest_written_tip(&m, &p, p.waypoints[g].p);
     assert!(
         nearest > 0.5,
         "a G-code line puts the tip {nearest} mm from it"
@@ -551,11 +547,7 @@ fn a_caged_waypoint_inside_a_run_of_colliding_ones_is_skipped_and_its_section_sp
     );
     assert_eq!(p.plan.residual_collisions, 0);
     assert_eq!(p.plan.colliding_edges, 0);
-    let at = p.waypoints[g].p;
-    let nearest = written_tips(&m, &p)
-        .into_iter()
-        .map(|t| dist(t, at))
-        .fold(f64::INFINITY, f64::min);
+    let nearest = nearest_written_tip(&m, &p, p.waypoints[g].p);
     assert!(
         nearest > 0.5,
         "a G-code line puts the tip {nearest} mm from it"

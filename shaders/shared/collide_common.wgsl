@@ -194,11 +194,10 @@ fn node_hull_clear(q: Query, node: PartNode, c: vec3<f32>, margin: f32) -> bool 
 // cpu.rs `node_hull_gap`: the least n·x − h over the node's sphere within
 // its slab, for the hull plane (n, h) of the cell holding c.
 fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
-    let cell = grid_cell(c, head.plane_origin, head.plane_inv_cell, head.plane_dims);
-    if cell.w == 0u {
+    let k = hull_plane_at(c);
+    if k == OUTSIDE_PLANES {
         return -1.0;
     }
-    let k = head.plane_offset + 4u * ((cell.z * head.plane_dims.y + cell.y) * head.plane_dims.x + cell.x);
     let n = vec3<f32>(grid[k], grid[k + 1u], grid[k + 2u]);
     let m = oct_decode(unpack2x16snorm(node.slab_normal));
     let mh = vec3<f32>(
@@ -213,6 +212,21 @@ fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
     let a = clamp(-alpha * r, range.x * r, range.y * r);
     let least = alpha * a - beta * sqrt(max(r * r - a * a, 0.0));
     return dot3(n, c) + least - grid[k + 3u] - 1e-5 * r;
+}
+
+// hull_plane_at's answer outside the planes' grid (not hull_plane.rs
+// `NO_PLANE`, a cell's own "no plane").
+const OUTSIDE_PLANES: u32 = 0xffffffffu;
+
+// cpu.rs `hull_plane_at`: where the hull plane (n, h) of the cell holding p
+// (head frame) starts in the grid buffer, or OUTSIDE_PLANES outside the planes'
+// grid.
+fn hull_plane_at(p: vec3<f32>) -> u32 {
+    let cell = grid_cell(p, head.plane_origin, head.plane_inv_cell, head.plane_dims);
+    if cell.w == 0u {
+        return OUTSIDE_PLANES;
+    }
+    return head.plane_offset + 4u * ((cell.z * head.plane_dims.y + cell.y) * head.plane_dims.x + cell.x);
 }
 
 // cpu.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside
@@ -372,11 +386,10 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
 // cpu.rs `hull_clear`: the triangle farther than margin from the head,
 // beyond the hull plane of the cell holding its centroid m.
 fn hull_clear(m: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
-    let cell = grid_cell(m, head.plane_origin, head.plane_inv_cell, head.plane_dims);
-    if cell.w == 0u {
+    let k = hull_plane_at(m);
+    if k == OUTSIDE_PLANES {
         return false;
     }
-    let k = head.plane_offset + 4u * ((cell.z * head.plane_dims.y + cell.y) * head.plane_dims.x + cell.x);
     let n = vec3<f32>(grid[k], grid[k + 1u], grid[k + 2u]);
     let near = min(min(dot3(n, a), dot3(n, b)), dot3(n, c));
     return near - grid[k + 3u] - head.grid_slack > margin;

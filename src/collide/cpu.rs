@@ -377,11 +377,9 @@ pub fn node_hull_gap(
     node: &GpuPartNode,
     c: V3,
 ) -> f32 {
-    let Some([ix, iy, iz]) = grid_cell(c, h.plane_origin, h.plane_inv_cell, h.plane_dims) else {
+    let Some(k) = hull_plane_at(h, c) else {
         return -1.0;
     };
-    let [nx, ny, _] = h.plane_dims;
-    let k = (h.plane_offset + 4 * ((iz * ny + iy) * nx + ix)) as usize;
     let n = [grid[k], grid[k + 1], grid[k + 2]];
     // The slab's normal in the head frame, and its interval in mm.
     let m = oct_decode(unpack_snorm2x16(node.slab_normal));
@@ -457,14 +455,22 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
 /// does not.
 #[inline(always)]
 pub fn hull_clear(h: &GpuHeadParams, grid: &[f32], m: V3, [a, b, c]: [V3; 3], margin: f32) -> bool {
-    let Some([ix, iy, iz]) = grid_cell(m, h.plane_origin, h.plane_inv_cell, h.plane_dims) else {
+    let Some(k) = hull_plane_at(h, m) else {
         return false;
     };
-    let [nx, ny, _] = h.plane_dims;
-    let k = (h.plane_offset + 4 * ((iz * ny + iy) * nx + ix)) as usize;
     let n = [grid[k], grid[k + 1], grid[k + 2]];
     let near = dot(n, a).min(dot(n, b)).min(dot(n, c));
     near - grid[k + 3] - h.grid_slack > margin
+}
+
+/// Where the hull plane `(n, h)` of the cell holding `p` (head frame)
+/// starts in the grid buffer (`scene::hull_plane`); `None` outside the
+/// planes' grid.
+#[inline(always)]
+pub fn hull_plane_at(h: &GpuHeadParams, p: V3) -> Option<usize> {
+    let [ix, iy, iz] = grid_cell(p, h.plane_origin, h.plane_inv_cell, h.plane_dims)?;
+    let [nx, ny, _] = h.plane_dims;
+    Some((h.plane_offset + 4 * ((iz * ny + iy) * nx + ix)) as usize)
 }
 
 /// The margin everything inside the sphere `(c, r)` (head frame) must at

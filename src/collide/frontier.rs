@@ -237,18 +237,8 @@ fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f3
 mod tests {
     use super::*;
     use crate::collide::cpu::first_hit;
-    use crate::scene::{Scene, SceneConfig};
 
-    fn scene() -> Scene {
-        let job = crate::default_job::job();
-        Scene::build(
-            &job.toolpath,
-            &job.head,
-            &job.platform,
-            &SceneConfig::default(),
-        )
-        .unwrap()
-    }
+    use crate::default_job::scene;
 
     fn xorshift(mut h: u64) -> impl FnMut() -> f32 {
         move || {

@@ -629,14 +629,7 @@ impl State<'_> {
             if items.is_empty() {
                 break; // Sampling exhausted.
             }
-            for (k, o) in self
-                .offer_until_full(prover, &items)?
-                .into_iter()
-                .enumerate()
-            {
-                self.offered[items[k].0] |= o;
-            }
-            open.retain(|&g| self.live_count(g) == 0);
+            self.offer_to_open(prover, &items, &mut open)?;
             round += 1;
         }
         // Last resort before giving a waypoint up: every reachable
@@ -668,17 +661,26 @@ impl State<'_> {
                     near.sort_by(|a, b| a.0.total_cmp(&b.0));
                     items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
                 }
-                for (k, o) in self
-                    .offer_until_full(prover, &items)?
-                    .into_iter()
-                    .enumerate()
-                {
-                    self.offered[items[k].0] |= o;
-                }
-                open.retain(|&g| self.live_count(g) == 0);
+                self.offer_to_open(prover, &items, &mut open)?;
                 lo = hi;
             }
         }
+        Ok(())
+    }
+
+    /// One step of [`State::search_harder`]: offer `items` until full,
+    /// note which waypoints had a feasible configuration, and keep in
+    /// `open` the waypoints still without a live one.
+    fn offer_to_open(
+        &mut self,
+        prover: &Prover,
+        items: &[(usize, [(f64, f64); 2])],
+        open: &mut Vec<usize>,
+    ) -> Result<(), PlanError> {
+        for (&(g, _), o) in items.iter().zip(self.offer_until_full(prover, items)?) {
+            self.offered[g] |= o;
+        }
+        open.retain(|&g| self.live_count(g) == 0);
         Ok(())
     }
 }
@@ -687,7 +689,6 @@ impl State<'_> {
 mod tests {
     use super::super::*;
     use crate::collide::cpu::CpuBackend;
-    use crate::scene::{Scene, SceneConfig};
 
     /// Offering a waypoint's candidates in waves, stopping once its column
     /// is full, keeps the very configurations that offering them all at
@@ -696,13 +697,7 @@ mod tests {
     #[test]
     fn offering_until_full_keeps_the_same_columns_with_fewer_queries() {
         let job = crate::default_job::job();
-        let scene = Scene::build(
-            &job.toolpath,
-            &job.head,
-            &job.platform,
-            &SceneConfig::default(),
-        )
-        .unwrap();
+        let scene = crate::default_job::scene();
         let machine = Machine::default();
         let opts = PlanOptions::default();
         let backend = CpuBackend::new(&scene);

@@ -205,13 +205,7 @@ mod tests {
     #[test]
     fn any_hint_gives_the_same_minimum() {
         let job = crate::default_job::job();
-        let scene = Scene::build(
-            &job.toolpath,
-            &job.head,
-            &job.platform,
-            &SceneConfig::default(),
-        )
-        .unwrap();
+        let scene = crate::default_job::scene();
         let starts = job.toolpath.layer_offsets();
         let n = scene.part_tris.len() as u32;
         let mut checked = 0;

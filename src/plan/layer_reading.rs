@@ -72,12 +72,13 @@ impl NearestLayer {
         cutoff: u32,
     ) -> Vec<MoveSpec> {
         let mut from = *a;
-        let pts = tip_subdivision_where(m, a, b, tol, |p| self.reads_as(p, layer));
+        let (pts, all_read_right) =
+            tip_subdivision_where(m, a, b, tol, |p| self.reads_as(p, layer));
         let n = pts.len();
         pts.into_iter()
             .enumerate()
             .map(|(k, to)| {
-                let reads_right = k + 1 == n || self.reads_as(m.tip(&to), layer);
+                let reads_right = all_read_right || k + 1 == n || self.reads_as(m.tip(&to), layer);
                 let cutoff = if reads_right {
                     cutoff
                 } else {

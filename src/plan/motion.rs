@@ -130,7 +130,7 @@ pub fn tip_deviation_bound(m: &Machine, a: &Axes, b: &Axes) -> f64 {
 /// interpolated linearly, every value rounded as written. Just `[b]` when
 /// the move needs no split.
 pub fn tip_subdivision(m: &Machine, a: &Axes, b: &Axes, tol: f64) -> Vec<Axes> {
-    tip_subdivision_where(m, a, b, tol, |_| true)
+    tip_subdivision_where(m, a, b, tol, |_| true).0
 }
 
 /// Piece counts tried beyond the smallest that keeps the tolerance when a
@@ -152,29 +152,19 @@ const MAX_UNEVEN_STEPS: usize = 1024;
 /// around the bead's middle, say, where an even split always puts a tip),
 /// an uneven one: from the start, each split tip at the farthest fraction
 /// on a fine grid that `fits` and keeps the piece within `tol`. The
-/// smallest even split when that fails too. The planner passes "reads as
-/// the bead's own layer" (see [`super::layer_reading`]).
+/// smallest even split when that fails too. Also says whether every
+/// split tip fits. The planner passes "reads as the bead's own layer" (see
+/// [`super::layer_reading`]).
 pub fn tip_subdivision_where(
     m: &Machine,
     a: &Axes,
     b: &Axes,
     tol: f64,
     fits: impl Fn([f64; 3]) -> bool,
-) -> Vec<Axes> {
+) -> (Vec<Axes>, bool) {
     let g = bow(m, a, b).0;
-    let (pa, pb) = (m.tip(a), m.tip(b));
-    let split = |n: usize| -> Vec<Axes> {
-        (1..=n)
-            .map(|k| {
-                if k == n {
-                    return *b;
-                }
-                let s = k as f64 / n as f64;
-                let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
-                m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
-            })
-            .collect()
-    };
+    let tips = (m.tip(a), m.tip(b));
+    let split = |n: usize| -> Vec<Axes> { (1..=n).map(|k| along(m, (a, b), tips, k, n)).collect() };
     // Rounding moves the pieces' ends a little: re-check each piece.
     let within = |pts: &[Axes]| {
         std::iter::once(a)
@@ -193,7 +183,7 @@ pub fn tip_subdivision_where(
     let n0 = smallest.len();
     let fit = |pts: &[Axes]| pts[..pts.len() - 1].iter().all(|x| fits(m.tip(x)));
     if fit(&smallest) {
-        return smallest;
+        return (smallest, true);
     }
     (n0 + 1..=n0 + EXTRA_PIECES)
         .map(split)
@@ -208,7 +198,25 @@ pub fn tip_subdivision_where(
                 &fits,
             )
         })
-        .unwrap_or(smallest)
+        .map_or((smallest, false), |pts| (pts, true))
+}
+
+/// The axes `k/n` of the way along the extruding move `a → b` whose tips
+/// are `pa → pb`: the tip on the part-frame chord, the rotary axes
+/// interpolated linearly (`b` itself at `k = n`).
+fn along(
+    m: &Machine,
+    (a, b): (&Axes, &Axes),
+    (pa, pb): ([f64; 3], [f64; 3]),
+    k: usize,
+    n: usize,
+) -> Axes {
+    if k == n {
+        return *b;
+    }
+    let s = k as f64 / n as f64;
+    let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
+    m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
 }
 
 /// The uneven split of [`tip_subdivision_where`] on a grid of `steps`
@@ -222,15 +230,8 @@ fn uneven_split(
     steps: usize,
     fits: &impl Fn([f64; 3]) -> bool,
 ) -> Option<Vec<Axes>> {
-    let (pa, pb) = (m.tip(a), m.tip(b));
-    let at = |j: usize| -> Axes {
-        if j == steps {
-            return *b;
-        }
-        let s = j as f64 / steps as f64;
-        let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
-        m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
-    };
+    let tips = (m.tip(a), m.tip(b));
+    let at = |j: usize| along(m, (a, b), tips, j, steps);
     let mut pts = Vec::new();
     let (mut from, mut i) = (*a, 0);
     while i < steps {
@@ -1320,7 +1321,7 @@ mod tests {
         let u0 = u(m.tip(&plain[0]));
         let fits = |p: [f64; 3]| (u(p) - u0).abs() > 0.02;
         assert!(!fits(m.tip(&plain[0])));
-        let moved = tip_subdivision_where(&m, &a, &b, 0.05, fits);
+        let moved = tip_subdivision_where(&m, &a, &b, 0.05, fits).0;
         assert!(moved.len() > plain.len());
         assert_eq!(*moved.last().unwrap(), b);
         let mut prev = a;
@@ -1330,7 +1331,7 @@ mod tests {
         }
         assert!(moved[..moved.len() - 1].iter().all(|q| fits(m.tip(q))));
         // Nowhere fits: the smallest split.
-        assert_eq!(tip_subdivision_where(&m, &a, &b, 0.05, |_| false), plain);
+        assert_eq!(tip_subdivision_where(&m, &a, &b, 0.05, |_| false).0, plain);
     }
 
     /// A refused band around the bead's middle catches a tip of every
@@ -1358,7 +1359,7 @@ mod tests {
             let refused = (1..n).any(|k| (k as f64 / n as f64 - 0.5).abs() < half);
             assert!(refused, "an even split of {n} pieces would fit");
         }
-        let moved = tip_subdivision_where(&m, &a, &b, 0.05, fits);
+        let moved = tip_subdivision_where(&m, &a, &b, 0.05, fits).0;
         assert_eq!(*moved.last().unwrap(), b);
         assert!(moved[..moved.len() - 1].iter().all(|q| fits(m.tip(q))));
         let mut prev = a;

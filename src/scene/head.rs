@@ -366,18 +366,12 @@ fn far_grid(bvh: HeadBvh, aabb: &Aabb, origin: V3, cell: f32, dims: [u32; 3]) ->
 /// Distance from `p` to the nearest head triangle: the BVH walked nearer
 /// child first, subtrees pruned by their box's distance (in f32, so with
 /// 1e-4 mm to spare).
-fn nearest_distance(bvh: HeadBvh, p: [f64; 3]) -> f64 {
-    nearest_point(bvh, p).0
+pub(crate) fn nearest_distance(bvh: HeadBvh, p: [f64; 3]) -> f64 {
+    nearest_on(bvh, p).0
 }
 
-/// [`nearest_distance`] and the nearest point of the head's surface.
-pub(crate) fn nearest_point(bvh: HeadBvh, p: [f64; 3]) -> (f64, [f64; 3]) {
-    let (d, q, _) = nearest_on(bvh, p);
-    (d, q)
-}
-
-/// [`nearest_point`] and the triangle it lies on (index into the BVH's
-/// triangles).
+/// [`nearest_distance`], the nearest point of the head's surface and the
+/// triangle it lies on (index into the BVH's triangles).
 pub(crate) fn nearest_on((nodes, tris): HeadBvh, p: [f64; 3]) -> (f64, [f64; 3], usize) {
     let pf = p.map(|x| x as f32);
     let box_distance = |n: u32| {

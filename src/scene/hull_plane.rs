@@ -192,7 +192,7 @@ mod tests {
             });
             let bound =
                 pl[0] as f64 * c[0] + pl[1] as f64 * c[1] + pl[2] as f64 * c[2] - pl[3] as f64;
-            let (d, _) = crate::scene::head::nearest_point((&head.nodes, &head.triangles), c);
+            let d = crate::scene::head::nearest_distance((&head.nodes, &head.triangles), c);
             // The stored normal is unit within f32 rounding: the bound may
             // exceed the distance by that relative amount, which the
             // evaluators' `grid_slack` covers many times over.

@@ -214,6 +214,12 @@ pub fn data() -> std::path::PathBuf {
 /// applied), with the data-set head and platform, placed as the original
 /// software did (z + 40.5 mm).
 pub fn simple_curve_job() -> maamplan::job::Job {
+    simple_curve_job_tilted(None)
+}
+
+/// [`simple_curve_job`] with every nozzle direction rotated by `tilt_deg`
+/// about x first (as `--tilt`).
+pub fn simple_curve_job_tilted(tilt_deg: Option<f64>) -> maamplan::job::Job {
     let d = data();
     maamplan::job::Job::load(&maamplan::job::JobSpec {
         toolpath: Some(d.join("simple_curve")),
@@ -224,6 +230,7 @@ pub fn simple_curve_job() -> maamplan::job::Job {
             offset: [0.0, 0.0, 40.5],
         },
         clearance: 0.3,
+        tilt_deg,
         ..Default::default()
     })
     .unwrap()
