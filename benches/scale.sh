@@ -11,6 +11,10 @@
 #             held-back models); each is planned as given and tilted 50°.
 #   REPEAT=n  runs per row, the median is reported (default 1).
 #   YUP=dir1,dir2  those MORE_ folders are Y-up (--y-up).
+#
+# The head's cache (README) is filled by the Y run, so the rows are warm,
+# as for a user planning part after part with one head; the row marked
+# "head built" runs with the cache off to show what a first run costs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 D=${1:-../shared/datasets/zhang2021}
@@ -40,12 +44,16 @@ printf '%-44s %9.2f %7.2f\n' "Y: check simple_curve --backend parry" "$Y" 1
 row() {
   local name=$1; shift
   rm -rf "$TMP/out"
-  read -r s k < <(measure "$BIN" plan "$@" "${H[@]}" --backend cpu -o "$TMP/out")
+  read -r s k < <(measure env "${CACHE[@]}" "$BIN" plan "$@" "${H[@]}" --backend cpu -o "$TMP/out")
   local html="-"
   [ -f "$TMP/out/report.html" ] && html=$(awk -v b="$(stat -c %s "$TMP/out/report.html")" 'BEGIN {printf "%.1f MB", b / 1e6}')
   printf '%-44s %9.2f %7.2f %9.0f %10s\n' "$name" "$s" "$(echo "$s / $Y" | bc -l)" "$(echo "$k / 1024" | bc -l)" "$html"
 }
+CACHE=()
 row "simple_curve" "$D/simple_curve"
+CACHE=(MAAMPLAN_CACHE_DIR=)
+row "simple_curve, head built (cache off)" "$D/simple_curve"
+CACHE=()
 row "dome_cut (as the original software reads it)" "$D/dome_cut"
 row "dome_cut, normals as given (--keep-normals)" "$D/dome_cut" --keep-normals
 row "simple_curve, tilted 50° about x" "$D/simple_curve" --tilt 50

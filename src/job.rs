@@ -138,6 +138,7 @@ impl Job {
                 ..HeadConfig::default()
             },
             max_edge: None,
+            head_cache: true,
         };
         let scene =
             Scene::build(&toolpath, &head, &platform, &cfg).map_err(|source| JobError::Scene {

@@ -21,6 +21,7 @@ fn cfg(clearance: f32) -> SceneConfig {
             grid_resolution: 48,
         },
         max_edge: None,
+        head_cache: false,
     }
 }
 

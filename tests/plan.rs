@@ -254,3 +254,37 @@ fn plan_command_writes_its_three_files() {
     assert!(String::from_utf8_lossy(&o.stderr).contains("m.toml:1:"));
     assert!(!out2.exists());
 }
+
+/// The head's data is cached between runs (`MAAMPLAN_CACHE_DIR`): the
+/// second run reads it, says so under `-v`, and writes the same program;
+/// an empty `MAAMPLAN_CACHE_DIR` turns the cache off.
+#[test]
+fn second_plan_reads_the_head_from_the_cache() {
+    let dir = tempfile::tempdir().unwrap();
+    let cache = dir.path().join("cache");
+    let run = |out: &str, cache: &std::path::Path| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_maamplan"))
+            .args(["plan", "--backend", "cpu", "-v", "-o"])
+            .arg(dir.path().join(out))
+            .env("MAAMPLAN_CACHE_DIR", cache)
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let program = std::fs::read_to_string(dir.path().join(out).join("toolpath.gcode")).unwrap();
+        let program: Vec<String> = program
+            .lines()
+            .filter(|l| !l.starts_with("; command:"))
+            .map(String::from)
+            .collect();
+        (program, String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    let (first, _) = run("a", &cache);
+    let entries: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
+    assert_eq!(entries.len(), 1, "one entry for the one head");
+    let (second, said) = run("b", &cache);
+    assert_eq!(first, second);
+    assert!(said.contains("head data read from"), "{said}");
+    let (third, said) = run("c", std::path::Path::new(""));
+    assert_eq!(first, third);
+    assert!(said.contains("head data built (no cache folder)"), "{said}");
+}

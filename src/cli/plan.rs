@@ -179,6 +179,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let backend = a.backend.build(scene, !a.quiet)?;
     let load_s = t0.elapsed().as_secs_f64();
     show.stage_line("load", load_s, None);
+    show.note(&scene.head_cache.to_string());
 
     let opts = PlanOptions {
         smoothing: match a.smoothing {

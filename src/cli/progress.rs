@@ -42,6 +42,14 @@ impl Reporter {
             Some(q) => format!("stage {name:<14} {seconds:>8.3} s {q:>12} collision queries"),
             None => format!("stage {name:<14} {seconds:>8.3} s"),
         };
+        self.note(&line);
+    }
+
+    /// A line of detail under `-v` (where the head's data came from).
+    pub fn note(&self, line: &str) {
+        if !self.verbose {
+            return;
+        }
         if self.bar.is_hidden() {
             println!("{line}");
         } else {

@@ -75,6 +75,7 @@ fn load_scene(a: &SimulateArgs) -> Result<(String, Toolpath, Scene)> {
             ..HeadConfig::default()
         },
         max_edge: None,
+        head_cache: true,
     };
     let tp = Toolpath::default();
     let scene = Scene::build(&tp, &head, &load_mesh(platform)?, &cfg)?;
@@ -107,6 +108,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     show.begin("loading");
     let (source, toolpath, mut scene) = load_scene(&a)?;
     show.stage_line("load", t0.elapsed().as_secs_f64(), None);
+    show.note(&scene.head_cache.to_string());
 
     let t1 = Instant::now();
     let timeline = simulate::timeline(&machine, &toolpath, &moves);

@@ -158,9 +158,9 @@ impl Head {
 
         let params = GpuHeadParams {
             aabb_min: aabb.min,
-            tol,
+            tol: 0.0,
             aabb_max: aabb.max,
-            grid_slack: 2.0 * tol,
+            grid_slack: 0.0,
             grid_origin: origin,
             cell,
             grid_dims: dims,
@@ -183,14 +183,24 @@ impl Head {
             plane_dims,
             _pad: 0,
         };
-        Ok(Head {
+        let mut head = Head {
             mesh,
             params,
             nodes,
             triangles,
             ray_triangles,
             grid,
-        })
+        };
+        head.set_tol(tol);
+        Ok(head)
+    }
+
+    /// Apply the scene's contact tolerance `tol` (mm): the only part of
+    /// the head's data that depends on it, so a head built once serves
+    /// every scene ([`super::head_cache`]).
+    pub fn set_tol(&mut self, tol: f32) {
+        self.params.tol = tol;
+        self.params.grid_slack = 2.0 * tol;
     }
 
     /// The head's bounding box in its own frame.

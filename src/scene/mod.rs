@@ -7,12 +7,14 @@
 pub mod bvh;
 pub mod gpu_types;
 pub mod head;
+pub mod head_cache;
 pub mod hull_plane;
 pub mod slab;
 mod stamp;
 
 pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
 pub use head::{Head, HeadConfig};
+pub use head_cache::CacheOutcome;
 
 use crate::geometry::{Aabb, Mesh, Pose};
 use crate::toolpath::Toolpath;
@@ -48,6 +50,9 @@ pub struct SceneConfig {
     /// Split part and platform triangles longer than this (mm); default:
     /// an eighth of the head's size, so a triangle never dwarfs the head.
     pub max_edge: Option<f32>,
+    /// Keep the head's derived data between runs in the user's cache
+    /// folder ([`head_cache::cache_dir`]); off by default, on in the CLI.
+    pub head_cache: bool,
 }
 
 /// A group of part triangles that stay together for the parry backend: the
@@ -88,6 +93,8 @@ pub struct Scene {
     pub waypoint_queries: Vec<Query>,
     /// Layer index of each waypoint.
     pub waypoint_layers: Vec<u32>,
+    /// Where the head's data came from.
+    pub head_cache: CacheOutcome,
 }
 
 /// A collision query: the head at `pose`, against everything with
@@ -203,11 +210,12 @@ impl Scene {
 
         // The head (its distance grids) and the part's layers do not
         // depend on each other: built side by side.
+        let cache = cfg.head_cache.then(head_cache::cache_dir).flatten();
         let (head, groups) = rayon::join(
-            || Head::build(head_mesh, &cfg.head, tol),
+            || head_cache::load_or_build(head_mesh, &cfg.head, tol, cache.as_deref()),
             || part_groups(toolpath, platform, max_edge),
         );
-        let head = head?;
+        let (head, head_cache) = head?;
 
         let mut soup = Vec::new();
         for g in &groups {
@@ -248,6 +256,7 @@ impl Scene {
             groups,
             waypoint_queries,
             waypoint_layers,
+            head_cache,
         })
     }
 

@@ -298,6 +298,7 @@ pub fn margin_cases() -> Vec<MarginCase> {
             grid_resolution: 48,
         },
         max_edge,
+        head_cache: false,
     };
     let at = |tip: V3, margin: f32| Query {
         pose: pose(tip, [0.0, 0.0, 1.0]),
@@ -388,6 +389,7 @@ pub fn star_scene(r: &mut ChaCha8Rng, rays: usize, spread: f32, lean: [f32; 2]) 
             grid_resolution: 48,
         },
         max_edge: None,
+        head_cache: false,
     };
     Scene::build(&tp, &head, &platform, &cfg).unwrap()
 }
