@@ -155,6 +155,42 @@ fn simple_curve_every_waypoint_and_100k_tilted_poses() {
 }
 
 #[test]
+fn callers_on_two_threads_get_their_own_verdicts() {
+    // The planner measures the input on one thread while it plans on
+    // another, both through one backend: each call's verdicts must be its
+    // own, in its own order, whatever the other call does meanwhile.
+    let (_, scene) = simple_curve();
+    let Some(g) = gpu(
+        &scene,
+        GpuOptions {
+            batch: Some(1024),
+            ..GpuOptions::default()
+        },
+    ) else {
+        return;
+    };
+    let tilted = tilted_queries(&scene.waypoint_queries, 20_000, 5);
+    let (a, b) = (&scene.waypoint_queries[..], &with_margin(&tilted, 0.05)[..]);
+    let (alone_a, alone_b) = (g.evaluate(a).unwrap(), g.evaluate(b).unwrap());
+    assert!(alone_a != alone_b[..alone_a.len().min(alone_b.len())]);
+    for _ in 0..3 {
+        let (side_a, side_b) = std::thread::scope(|t| {
+            let ja = t.spawn(|| g.evaluate(a).unwrap());
+            let jb = t.spawn(|| g.evaluate(b).unwrap());
+            (ja.join().unwrap(), jb.join().unwrap())
+        });
+        assert!(
+            side_a == alone_a,
+            "the waypoints' verdicts changed beside another call"
+        );
+        assert!(
+            side_b == alone_b,
+            "the tilted poses' verdicts changed beside another call"
+        );
+    }
+}
+
+#[test]
 fn synthetic_part_larger_than_one_binding() {
     // 3.1 million layer triangles: 150 MB of triangles, more than lavapipe's
     // 128 MiB storage binding, so the part is split across bindings.

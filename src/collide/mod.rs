@@ -32,7 +32,9 @@ pub enum CollideError {
 pub trait Backend: Sync {
     /// Short name as used on the command line (`cpu`, `parry`, `gpu`).
     fn name(&self) -> &'static str;
-    /// One verdict per query: `true` = collides.
+    /// One verdict per query: `true` = collides. May be called from
+    /// several threads at once (the planner measures the input beside its
+    /// own stages); each call's verdicts are its own.
     fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError>;
 }
 

@@ -70,6 +70,10 @@ pub struct GpuBackend {
     /// `collide_exact` without them, for batches at margin 0.
     exact_touch: wgpu::ComputePipeline,
     sets: [BatchSet; 2],
+    /// Held for the whole of an `evaluate`: the two buffer sets serve one
+    /// caller at a time (the planner measures the input on another thread
+    /// while it plans, and both share this backend).
+    busy: std::sync::Mutex<()>,
     batch: usize,
     capacity: u32,
     nodes_per_chunk: u32,
@@ -291,6 +295,7 @@ impl GpuBackend {
             exact,
             exact_touch,
             sets,
+            busy: std::sync::Mutex::new(()),
             batch,
             capacity: capacity as u32,
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
@@ -445,6 +450,9 @@ impl Backend for GpuBackend {
 
     fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         check_finite(queries)?;
+        // A panic elsewhere while holding it leaves the buffers as
+        // consistent as any other finished call: the poison is ignored.
+        let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
         self.run(queries, self.batch)
     }
 }
