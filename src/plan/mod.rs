@@ -375,31 +375,52 @@ pub fn plan(
         clock = Instant::now();
     };
     let mut st = State::new(scene, toolpath, machine, opts);
-
-    tell(Progress::Stage("smoothing"));
-    st.smooth();
-    lap("smooth", &mut stages);
-    tell(Progress::Stage("singularities"));
-    st.singularities();
-    lap("singularities", &mut stages);
-    tell(Progress::Stage("collisions"));
-    st.columns(&prover)?;
-    lap("columns", &mut stages);
-    tell(Progress::Stage("graph"));
-    st.graph(&prover)?;
-    lap("graph", &mut stages);
-    tell(Progress::Stage("extrusion"));
-    st.extrusion();
-    lap("extrusion", &mut stages);
-    tell(Progress::Stage("program"));
-    let program = st.program(&prover)?;
-    lap("program", &mut stages);
-    tell(Progress::Stage("metrics"));
-    let (plan_m, waypoints) = st.plan_metrics(&program, &prover)?;
-    lap("verify", &mut stages);
-    tell(Progress::Stage("input metrics"));
-    let (input_m, input_axes, was_colliding) = st.input_metrics(&prover)?;
-    lap("input", &mut stages);
+    // The input's own metrics need nothing the planner finds: they are
+    // measured beside it, with a prover of their own (its answers and
+    // counts do not depend on how the two interleave), and fill the
+    // cores the planner's serial steps leave idle.
+    let input = InputJob::new(&st);
+    let input_prover = Prover::new(machine, backend, head_reach(scene), margin, opts.edge_step);
+    let (planned, measured) = rayon::join(
+        || -> Result<_, PlanError> {
+            tell(Progress::Stage("smoothing"));
+            st.smooth();
+            lap("smooth", &mut stages);
+            tell(Progress::Stage("singularities"));
+            st.singularities();
+            lap("singularities", &mut stages);
+            tell(Progress::Stage("collisions"));
+            st.columns(&prover)?;
+            lap("columns", &mut stages);
+            tell(Progress::Stage("graph"));
+            st.graph(&prover)?;
+            lap("graph", &mut stages);
+            tell(Progress::Stage("extrusion"));
+            st.extrusion();
+            lap("extrusion", &mut stages);
+            tell(Progress::Stage("program"));
+            let program = st.program(&prover)?;
+            lap("program", &mut stages);
+            tell(Progress::Stage("metrics"));
+            let (plan_m, waypoints) = st.plan_metrics(&program, &prover)?;
+            lap("verify", &mut stages);
+            Ok((program, plan_m, waypoints))
+        },
+        || {
+            let t = Instant::now();
+            let m = input.metrics(&input_prover);
+            (m, t.elapsed().as_secs_f64())
+        },
+    );
+    let (program, plan_m, waypoints) = planned?;
+    let ((input_m, input_axes, was_colliding), input_s) = (measured.0?, measured.1);
+    let stage = Stage {
+        name: "input".into(),
+        seconds: input_s,
+        queries: input_prover.queries(),
+    };
+    tell(Progress::Done(&stage));
+    stages.push(stage);
     let waypoints = waypoints
         .into_iter()
         .zip(&input_axes)
@@ -422,7 +443,7 @@ pub fn plan(
         alpha: opts.alpha,
         margin,
         warnings: st.warnings,
-        queries: prover.queries(),
+        queries: prover.queries() + input_prover.queries(),
     })
 }
 
@@ -828,16 +849,40 @@ impl<'a> State<'a> {
         }
         Ok((out, wps))
     }
+}
 
-    /// Stage 7b: the input measured by the same rules (direct IK, C
-    /// unwound, orientations unchanged), from the work already done where
-    /// it can be: a move from or to a pose within the margin collides; a
-    /// move the graph proved (the plan kept both input poses) has that
-    /// verdict. Only the rest — C swings of hundreds of degrees between
-    /// neighbours, mostly — are sampled ([`INPUT_STEP`] mm of head motion
-    /// apart, at most 16 samples), so the colliding-edge count is a lower
-    /// bound.
-    fn input_metrics(&self, prover: &Prover) -> Result<(Metrics, Vec<Axes>, Vec<bool>), PlanError> {
+/// Stage 7b: the input as given, measured by the same rules as the plan
+/// (direct IK, C unwound, orientations unchanged) — what it needs of the
+/// toolpath, copied so that it runs beside the planner.
+struct InputJob<'a> {
+    machine: &'a Machine,
+    opts: &'a PlanOptions,
+    pos: Vec<[f64; 3]>,
+    n0: Vec<[f64; 3]>,
+    layer_of: Vec<usize>,
+    support: Vec<bool>,
+    runs: Vec<Range<usize>>,
+}
+
+impl<'a> InputJob<'a> {
+    fn new(st: &State<'a>) -> Self {
+        InputJob {
+            machine: st.machine,
+            opts: st.opts,
+            pos: st.pos.clone(),
+            n0: st.n0.clone(),
+            layer_of: st.layer_of.clone(),
+            support: st.support.clone(),
+            runs: st.runs.clone(),
+        }
+    }
+
+    /// The input's metrics, its axes and which of its poses collide: a
+    /// move from or to a pose within the margin collides; the others —
+    /// C swings of hundreds of degrees between neighbours, mostly — are
+    /// sampled ([`INPUT_STEP`] mm of head motion apart, at most 16
+    /// samples), so the colliding-edge count is a lower bound.
+    fn metrics(&self, prover: &Prover) -> Result<(Metrics, Vec<Axes>, Vec<bool>), PlanError> {
         let m = self.machine;
         let axes = input_axes(m, &self.pos, &self.n0, &self.runs);
         let items: Vec<(Axes, u32)> = axes
@@ -847,44 +892,26 @@ impl<'a> State<'a> {
             .collect();
         let hit = prover.poses_at(&items, prover.margin)?;
         let edges: Vec<usize> = self.runs.iter().flat_map(|r| r.start + 1..r.end).collect();
-        // A bead the search proved joins two of its columns' configurations:
-        // only then is it worth splitting to look it up.
-        let planned = |g: usize, a: &Axes| self.cols[g].iter().any(|b| motion::same_pose(a, b));
-        let known: Vec<Option<bool>> = edges
-            .par_iter()
-            .map(|&g| {
-                if hit[g - 1] || hit[g] {
-                    return Some(true);
-                }
-                if !planned(g - 1, &axes[g - 1]) || !planned(g, &axes[g]) {
-                    return None;
-                }
-                let proven: Option<Vec<bool>> = self
-                    .print_moves(g, &axes[g - 1], &axes[g])
-                    .iter()
-                    .map(|mv| prover.known_move(mv))
-                    .collect();
-                proven.map(|v| v.contains(&true))
-            })
-            .collect();
         let specs: Vec<MoveSpec> = edges
             .iter()
-            .zip(&known)
-            .filter(|(_, k)| k.is_none())
-            .map(|(&g, _)| MoveSpec {
+            .filter(|&&g| !hit[g - 1] && !hit[g])
+            .map(|&g| MoveSpec {
                 from: axes[g - 1],
                 to: axes[g],
                 cutoff: cutoff(g - 1),
             })
             .collect();
         let sampled = prover.sampled_moves(&specs, INPUT_STEP, 16)?;
-        let colliding_edges = known.iter().filter(|k| **k == Some(true)).count()
-            + sampled.iter().filter(|&&h| h).count();
+        let colliding_edges = edges.len() - specs.len() + sampled.iter().filter(|&&h| h).count();
         let mut out = Metrics {
             waypoints: self.pos.len(),
             residual_collisions: hit.iter().filter(|&&h| h).count(),
             colliding_edges,
-            singular_waypoints: self.was_singular.iter().filter(|&&s| s).count(),
+            singular_waypoints: self
+                .n0
+                .iter()
+                .filter(|n| singular::is_singular(**n, self.opts.alpha))
+                .count(),
             ..Metrics::default()
         };
         let mut stats = SegmentStats::default();
