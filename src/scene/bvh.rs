@@ -35,7 +35,11 @@ pub fn build(tris: &[GpuTriangle], max_leaf: u32) -> Result<StampedBvh, SceneErr
             v2: t.v2.into(),
         })
         .collect();
-    let mut params = BvhBuildParams::medium_build();
+    // obvhs's fast preset: against medium_build, dome_cut's build 2.5 →
+    // 1.9 s, and whole plans 5–10 % faster on every shared model (paired
+    // runs, BENCHMARKS.md); very_fast_build's tree costs the queries more
+    // than its build saves.
+    let mut params = BvhBuildParams::fast_build();
     params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
     let bvh = build_bvh2_from_tris(&obv, params, &mut Duration::default());
     drop(obv);
