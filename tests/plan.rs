@@ -188,6 +188,15 @@ fn default_job_plan_removes_collisions() {
     assert_eq!(p.plan.skipped_waypoints, 0);
     assert!(p.plan.speed_violation_pct < p.input.speed_violation_pct);
     assert!(p.plan.max_step_deg < p.input.max_step_deg);
+    // Each layer's waypoints (the report's charts) as a plain filter finds them.
+    let layers = p.waypoints.iter().map(|w| w.layer).max().unwrap() + 1;
+    assert!(layers > 1);
+    for k in 0..layers + 1 {
+        let plain: Vec<usize> = (0..p.waypoints.len())
+            .filter(|&i| p.waypoints[i].layer == k)
+            .collect();
+        assert_eq!(p.layer_waypoints(k).collect::<Vec<_>>(), plain, "layer {k}");
+    }
 }
 
 #[test]

@@ -195,6 +195,16 @@ pub struct Plan {
     pub queries: u64,
 }
 
+impl Plan {
+    /// The waypoints of `layer` (indices into [`Plan::waypoints`]): the
+    /// plan lists them as the toolpath does, layer after layer, so they
+    /// are one run, found by bisection.
+    pub fn layer_waypoints(&self, layer: usize) -> Range<usize> {
+        let w = &self.waypoints;
+        w.partition_point(|p| p.layer < layer)..w.partition_point(|p| p.layer <= layer)
+    }
+}
+
 /// What [`plan`] tells its caller as it goes.
 #[derive(Clone, Copy, Debug)]
 pub enum Progress<'a> {
