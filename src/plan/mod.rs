@@ -477,6 +477,10 @@ impl<'a> State<'a> {
             layer_of.push(k);
         }
         let runs = runs(toolpath, opts.jump);
+        let was_singular = n0
+            .iter()
+            .map(|n| singular::is_singular(*n, opts.alpha))
+            .collect();
         State {
             scene,
             machine,
@@ -491,7 +495,7 @@ impl<'a> State<'a> {
             layer_start: toolpath.layer_offsets(),
             runs,
             fixed: vec![None; n_wp],
-            was_singular: vec![false; n_wp],
+            was_singular,
             cols: vec![Vec::new(); n_wp],
             nodes: vec![Vec::new(); n_wp],
             cursor: vec![columns::EXHAUSTED; n_wp],
@@ -523,9 +527,6 @@ impl<'a> State<'a> {
         for r in &self.runs {
             let (f, _) = singular::process(rot, &self.n1[r.clone()], self.opts.alpha);
             self.fixed[r.clone()].clone_from_slice(&f);
-        }
-        for (s, n) in self.was_singular.iter_mut().zip(&self.n0) {
-            *s = singular::is_singular(*n, self.opts.alpha);
         }
     }
 
@@ -872,6 +873,8 @@ struct InputJob<'a> {
     layer_of: Vec<usize>,
     support: Vec<bool>,
     runs: Vec<Range<usize>>,
+    /// Waypoints in the singular region as given.
+    singular: usize,
 }
 
 impl<'a> InputJob<'a> {
@@ -884,6 +887,7 @@ impl<'a> InputJob<'a> {
             layer_of: st.layer_of.clone(),
             support: st.support.clone(),
             runs: st.runs.clone(),
+            singular: st.was_singular.iter().filter(|&&s| s).count(),
         }
     }
 
@@ -917,11 +921,7 @@ impl<'a> InputJob<'a> {
             waypoints: self.pos.len(),
             residual_collisions: hit.iter().filter(|&&h| h).count(),
             colliding_edges,
-            singular_waypoints: self
-                .n0
-                .iter()
-                .filter(|n| singular::is_singular(**n, self.opts.alpha))
-                .count(),
+            singular_waypoints: self.singular,
             ..Metrics::default()
         };
         let mut stats = SegmentStats::default();

@@ -297,11 +297,6 @@ fn pose_key(a: &Axes, cutoff: u32) -> PoseKey {
     ]
 }
 
-/// Are `a` and `b` the same pose on the program's grid (C modulo a turn)?
-pub fn same_pose(a: &Axes, b: &Axes) -> bool {
-    pose_key(a, 0) == pose_key(b, 0)
-}
-
 /// [`pose_key`]'s value.
 type PoseKey = [i32; 6];
 
@@ -628,15 +623,6 @@ impl<'a> Prover<'a> {
             k += q.len();
         }
         Ok(out)
-    }
-
-    /// The verdict already found for `mv` by [`Prover::moves`], if any.
-    pub fn known_move(&self, mv: &MoveSpec) -> Option<bool> {
-        self.cache
-            .lock()
-            .expect("prover cache")
-            .get(&key(mv))
-            .copied()
     }
 
     /// Does each move come within the margin of existing material at any
