@@ -289,7 +289,8 @@ mod tests {
             asked += 1;
         }
         assert!(hits > 100 && hits < asked - 100, "{hits} hits of {asked}");
-        // 54,008 carried over.
-        assert!(f.carried > 20_000, "{} cut nodes carried", f.carried);
+        // 14,451 carried over (54,008 before the tree was built lifted by
+        // layer: its cuts are smaller).
+        assert!(f.carried > 5_000, "{} cut nodes carried", f.carried);
     }
 }

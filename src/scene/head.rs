@@ -102,7 +102,7 @@ impl Head {
                 }
             })
             .collect();
-        let StampedBvh { nodes, triangles } = bvh::build(&tris, 4)?;
+        let StampedBvh { nodes, triangles } = bvh::build(&tris, 4, 0.0)?;
         let frame = ray_frame();
         let ray_triangles = triangles
             .iter()

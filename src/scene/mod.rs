@@ -231,7 +231,7 @@ impl Scene {
                 });
             }
         }
-        let part = bvh::build(&soup, 4)?;
+        let part = bvh::build(&soup, 4, head_extent * bvh::LAYER_LIFT_PER_HEAD)?;
         drop(soup);
         let mut part_nodes = bvh::sphere_nodes(&part);
         slab::add_slabs(&part, &mut part_nodes);

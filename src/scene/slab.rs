@@ -427,7 +427,7 @@ mod tests {
                 ..Default::default()
             });
         }
-        let tree = bvh::build(&tris, 4).unwrap();
+        let tree = bvh::build(&tris, 4, 0.0).unwrap();
         let mut nodes = bvh::sphere_nodes(&tree);
         add_slabs(&tree, &mut nodes);
         let mut thin_layered = 0;
