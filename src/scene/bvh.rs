@@ -225,6 +225,26 @@ fn min_stamps(packed: &[u32], tris: &[GpuTriangle]) -> Vec<u32> {
     out
 }
 
+/// Every node's largest stamp below it (children after their parent, as
+/// [`min_stamps`] relies on): a subtree whose stamps all lie before some
+/// point of the print holds nothing printed after it.
+pub fn max_stamps(nodes: &[GpuPartNode], tris: &[GpuTriangle]) -> Vec<u32> {
+    let mut out = vec![0u32; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        out[i] = match nodes[i].leaf_range() {
+            Some((first, count)) => (first..first + count)
+                .map(|t| tris[t as usize].stamp)
+                .max()
+                .unwrap_or(0),
+            None => {
+                let l = nodes[i].packed as usize;
+                out[l].max(out[l + 1])
+            }
+        };
+    }
+    out
+}
+
 /// Recompute every node's minimum stamp from `tris` (after the
 /// triangles' stamps changed; the tree itself is kept).
 pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
