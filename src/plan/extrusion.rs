@@ -98,7 +98,7 @@ impl<'a> Below<'a> {
     /// starts, if below `limit` (else `limit`), and that triangle. The
     /// search starts from the distance to `hint` (the triangle nearest to
     /// the previous waypoint a worker measured: neighbours rest on the
-    /// same surface), so the walk is pruned by their bounding spheres from
+    /// same surface), so the walk is pruned by their bounds from
     /// its first node (dome_cut's stage 0.48 → 0.45 s). The minimum is the
     /// one a search from `limit` finds, whatever the hint.
     fn nearest(

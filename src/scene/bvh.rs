@@ -168,81 +168,81 @@ fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>) {
     (out, order)
 }
 
-/// Every node's box: the smallest that holds the triangles below it (the
-/// build's boxes are those of the lifted triangles). Children first,
-/// walking back from the last node, as in [`min_stamps`].
-fn fit_boxes(nodes: &mut [GpuNode], tris: &[GpuTriangle]) {
-    for i in (0..nodes.len()).rev() {
-        let (min, max) = match nodes[i].leaf_range() {
-            Some((first, count)) => tris[first as usize..(first + count) as usize]
-                .iter()
-                .flat_map(|t| [t.v0, t.v1, t.v2])
-                .fold(
-                    ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
-                    |(lo, hi), v| {
-                        (
-                            [0, 1, 2].map(|k| lo[k].min(v[k])),
-                            [0, 1, 2].map(|k| hi[k].max(v[k])),
-                        )
-                    },
-                ),
+/// A value per node from the leaves up: `leaf(first, count)` for a leaf,
+/// `join` of its children's for an inner node; `packed(i)` is node `i`'s
+/// [`GpuNode`] word (child index or leaf range). The depth-first layout
+/// ([`depth_first`]) stores every child after its parent, so one sweep
+/// back from the last node meets the children first.
+fn bottom_up<T: Copy + Default>(
+    n: usize,
+    packed: impl Fn(usize) -> u32,
+    leaf: impl Fn(u32, u32) -> T,
+    join: impl Fn(T, T) -> T,
+) -> Vec<T> {
+    let mut out = vec![T::default(); n];
+    for i in (0..n).rev() {
+        let node = GpuNode {
+            packed: packed(i),
+            ..GpuNode::default()
+        };
+        out[i] = match node.leaf_range() {
+            Some((first, count)) => leaf(first, count),
             None => {
-                let l = nodes[i].packed as usize;
-                let (a, b) = (nodes[l], nodes[l + 1]);
-                (
-                    [0, 1, 2].map(|k| a.min[k].min(b.min[k])),
-                    [0, 1, 2].map(|k| a.max[k].max(b.max[k])),
-                )
+                let l = node.packed as usize;
+                join(out[l], out[l + 1])
             }
         };
-        nodes[i].min = min;
-        nodes[i].max = max;
+    }
+    out
+}
+
+/// Every node's box: the smallest that holds the triangles below it (the
+/// build's boxes are those of the lifted triangles).
+fn fit_boxes(nodes: &mut [GpuNode], tris: &[GpuTriangle]) {
+    type Box3 = ([f32; 3], [f32; 3]);
+    let union = |(a, b): Box3, (c, d): Box3| -> Box3 {
+        (
+            [0, 1, 2].map(|k| a[k].min(c[k])),
+            [0, 1, 2].map(|k| b[k].max(d[k])),
+        )
+    };
+    let leaf = |first: u32, count: u32| {
+        tris[first as usize..(first + count) as usize]
+            .iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2])
+            .fold(([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]), |b, v| {
+                union(b, (v, v))
+            })
+    };
+    let boxes = bottom_up(nodes.len(), |i| nodes[i].packed, leaf, union);
+    for (n, (min, max)) in nodes.iter_mut().zip(boxes) {
+        n.min = min;
+        n.max = max;
     }
 }
 
 /// Every node's smallest stamp below it, for nodes given by their
-/// `packed` words ([`GpuNode`] layout: child index or leaf range) over
-/// `tris`: one sweep from the last node back, since the depth-first layout
-/// ([`depth_first`]) stores every child after its parent.
+/// `packed` words over `tris`.
 fn min_stamps(packed: &[u32], tris: &[GpuTriangle]) -> Vec<u32> {
-    let mut out = vec![u32::MAX; packed.len()];
-    for i in (0..packed.len()).rev() {
-        let node = GpuNode {
-            packed: packed[i],
-            ..GpuNode::default()
-        };
-        out[i] = match node.leaf_range() {
-            Some((first, count)) => (first..first + count)
-                .map(|t| tris[t as usize].stamp)
-                .min()
-                .unwrap_or(u32::MAX),
-            None => {
-                let l = packed[i] as usize;
-                out[l].min(out[l + 1])
-            }
-        };
-    }
-    out
+    let leaf = |first: u32, count: u32| {
+        (first..first + count)
+            .map(|t| tris[t as usize].stamp)
+            .min()
+            .unwrap_or(u32::MAX)
+    };
+    bottom_up(packed.len(), |i| packed[i], leaf, u32::min)
 }
 
-/// Every node's largest stamp below it (children after their parent, as
-/// [`min_stamps`] relies on): a subtree whose stamps all lie before some
-/// point of the print holds nothing printed after it.
+/// Every node's largest stamp below it: a subtree whose stamps all lie
+/// before some point of the print holds nothing printed after it.
 pub fn max_stamps(nodes: &[GpuPartNode], tris: &[GpuTriangle]) -> Vec<u32> {
-    let mut out = vec![0u32; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        out[i] = match nodes[i].leaf_range() {
-            Some((first, count)) => (first..first + count)
-                .map(|t| tris[t as usize].stamp)
-                .max()
-                .unwrap_or(0),
-            None => {
-                let l = nodes[i].packed as usize;
-                out[l].max(out[l + 1])
-            }
-        };
-    }
-    out
+    let leaf = |first: u32, count: u32| {
+        (first..first + count)
+            .map(|t| tris[t as usize].stamp)
+            .max()
+            .unwrap_or(0)
+    };
+    bottom_up(nodes.len(), |i| nodes[i].packed, leaf, u32::max)
 }
 
 /// Recompute every node's minimum stamp from `tris` (after the
@@ -254,34 +254,25 @@ pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
     }
 }
 
-/// Triangles below each node, children first: walking back from the
-/// last node, since the depth-first layout ([`depth_first`]) stores every
-/// child after its parent.
+/// Triangles below each node.
 pub(crate) fn subtree_counts(nodes: &[GpuNode]) -> Vec<u32> {
-    let mut count = vec![0u32; nodes.len()];
-    for i in (0..nodes.len()).rev() {
-        count[i] = match nodes[i].leaf_range() {
-            Some((_, c)) => c,
-            None => {
-                let l = nodes[i].packed as usize;
-                count[l] + count[l + 1]
-            }
-        };
-    }
-    count
+    bottom_up(
+        nodes.len(),
+        |i| nodes[i].packed,
+        |_, count| count,
+        |a, b| a + b,
+    )
 }
 
-/// `f` of every triangle vertex below node `i` (by descent).
-pub(crate) fn for_each_vertex_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut([f32; 3])) {
+/// `f` of every triangle below node `i` (by descent).
+pub(crate) fn for_each_triangle_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut(&GpuTriangle)) {
     let mut stack = vec![i];
     while let Some(j) = stack.pop() {
         match bvh.nodes[j].leaf_range() {
             Some((first, count)) => {
-                for t in &bvh.triangles[first as usize..(first + count) as usize] {
-                    f(t.v0);
-                    f(t.v1);
-                    f(t.v2);
-                }
+                bvh.triangles[first as usize..(first + count) as usize]
+                    .iter()
+                    .for_each(&mut f);
             }
             None => {
                 let l = bvh.nodes[j].packed as usize;
@@ -289,6 +280,15 @@ pub(crate) fn for_each_vertex_below(bvh: &StampedBvh, i: usize, mut f: impl FnMu
             }
         }
     }
+}
+
+/// `f` of every triangle vertex below node `i` (by descent).
+pub(crate) fn for_each_vertex_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut([f32; 3])) {
+    for_each_triangle_below(bvh, i, |t| {
+        f(t.v0);
+        f(t.v1);
+        f(t.v2);
+    });
 }
 
 /// Subtrees of at most this many triangles get the exact radius; above,
@@ -507,24 +507,6 @@ mod tests {
                     }
                 });
                 assert_eq!((n.min, n.max), (lo, hi), "node {i}");
-            }
-        }
-    }
-
-    /// `f` of every triangle below node `i`.
-    fn for_each_triangle_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut(&GpuTriangle)) {
-        let mut stack = vec![i];
-        while let Some(j) = stack.pop() {
-            match bvh.nodes[j].leaf_range() {
-                Some((first, count)) => {
-                    bvh.triangles[first as usize..(first + count) as usize]
-                        .iter()
-                        .for_each(&mut f);
-                }
-                None => {
-                    let l = bvh.nodes[j].packed as usize;
-                    stack.extend([l, l + 1]);
-                }
             }
         }
     }
