@@ -21,6 +21,7 @@ use super::SceneError;
 use obvhs::bvh2::builder::build_bvh2_from_tris;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
+use rayon::prelude::*;
 use std::time::Duration;
 
 /// A BVH and its triangles, reordered so each leaf's triangles are contiguous.
@@ -100,9 +101,9 @@ pub fn build(
     }
     // Leaf ranges index `primitive_indices`; laid out depth first they
     // index the triangles, gathered once in that order.
-    let (mut nodes, order) = depth_first(&nodes);
+    let (mut nodes, order, max_depth) = depth_first(&nodes);
     let triangles: Vec<GpuTriangle> = order
-        .iter()
+        .par_iter()
         .map(|&k| tris[bvh.primitive_indices[k as usize] as usize])
         .collect();
     drop(bvh);
@@ -112,19 +113,7 @@ pub fn build(
         n.min_stamp = m;
     }
     // Traversal keeps at most depth + 1 entries on its fixed-size stack.
-    let mut depth = vec![0u32; nodes.len()];
-    let mut max_depth = 0;
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        max_depth = max_depth.max(depth[i]);
-        if nodes[i].leaf_range().is_none() {
-            let l = nodes[i].packed as usize;
-            depth[l] = depth[i] + 1;
-            depth[l + 1] = depth[i] + 1;
-            stack.extend([l, l + 1]);
-        }
-    }
-    if max_depth as usize + 2 > STACK_SIZE {
+    if max_depth + 2 > STACK_SIZE {
         return Err(SceneError::Internal(format!(
             "BVH depth {max_depth} exceeds the traversal stack ({STACK_SIZE})"
         )));
@@ -135,19 +124,21 @@ pub fn build(
 /// The same tree laid out depth first: each pair of children stored after
 /// the subtree of the pair before it, so a walk down the tree reads memory
 /// forward, and leaves renumbered in the order the walk meets them.
-/// Returns the nodes and, for each new leaf slot, the old one (the caller
-/// gathers the triangles in that order). PLOC and reinsertion leave the
+/// Returns the nodes, for each new leaf slot the old one (the caller
+/// gathers the triangles in that order), and the deepest node's depth. PLOC and reinsertion leave the
 /// nodes in build order, where a parent and its children can lie
 /// megabytes apart; a query's few hundred node visits were cache misses.
 /// The tree (and so every traversal's sequence of nodes) is unchanged.
-fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>) {
+fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>, usize) {
     let mut out = vec![GpuNode::default(); nodes.len()];
     let mut order = Vec::new();
     out[0] = nodes[0];
     let mut next = 1usize;
-    // (old index, new index), left children popped first.
-    let mut stack = vec![(0usize, 0usize)];
-    while let Some((old, new)) = stack.pop() {
+    let mut depth = 0;
+    // (old index, new index, depth), left children popped first.
+    let mut stack = vec![(0usize, 0usize, 0usize)];
+    while let Some((old, new, d)) = stack.pop() {
+        depth = depth.max(d);
         match nodes[old].leaf_range() {
             Some((first, count)) => {
                 let start = order.len() as u32;
@@ -159,13 +150,13 @@ fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>) {
                 out[next] = nodes[l];
                 out[next + 1] = nodes[l + 1];
                 out[new].packed = next as u32;
-                stack.extend([(l + 1, next + 1), (l, next)]);
+                stack.extend([(l + 1, next + 1, d + 1), (l, next, d + 1)]);
                 next += 2;
             }
         }
     }
     out.truncate(next);
-    (out, order)
+    (out, order, depth)
 }
 
 /// A value per node from the leaves up: `leaf(first, count)` for a leaf,
@@ -302,7 +293,6 @@ const EXACT_SPHERE_TRIS: u32 = 64;
 /// and the box above), computed in `f64` and rounded up so the sphere
 /// always contains every triangle.
 pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
-    use rayon::prelude::*;
     let nodes = &bvh.nodes;
     let mut out: Vec<GpuPartNode> = nodes
         .iter()
