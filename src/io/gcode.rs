@@ -33,7 +33,7 @@ pub struct GcodeHeader {
 
 /// `x` with three decimals, never `-0.000`.
 fn f3(x: f64) -> String {
-    let s = format!("{:.3}", x + 0.0);
+    let s = super::fixed::fixed(x + 0.0, 3);
     if s == "-0.000" {
         "0.000".into()
     } else {

@@ -3,6 +3,7 @@
 //! Every input problem is an [`InputError`] whose message is one line naming
 //! the file, the line (or facet) and what to do about it.
 
+pub mod fixed;
 pub mod gcode;
 pub mod gcode_read;
 pub mod mesh;

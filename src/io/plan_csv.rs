@@ -9,6 +9,7 @@
 //! `report.json` counts the same flags), `skipped` (empty when visited,
 //! else `residual`, `unreachable` or `isolated`; skipped rows have no axes).
 
+use super::fixed::push_fixed;
 use super::{read_to_string, InputError};
 use crate::kinematics::{Machine, Rotary};
 use crate::plan::{PlannedWaypoint, Skip};
@@ -51,29 +52,39 @@ fn row(s: &mut String, i: usize, p: &PlannedWaypoint) {
         Some(Skip::Unreachable) => "unreachable",
         Some(Skip::Isolated) => "isolated",
     };
-    let _ = write!(
-        s,
-        "{i},{},{:.4},{:.4},{:.4},{:.6},{:.6},{:.6},",
-        p.layer, p.p[0], p.p[1], p.p[2], p.n[0], p.n[1], p.n[2],
-    );
-    let _ = if p.skipped.is_some() {
-        write!(s, ",,,,")
+    let _ = write!(s, "{i},{},", p.layer);
+    for v in &p.p {
+        push_fixed(s, *v, 4);
+        s.push(',');
+    }
+    for v in &p.n {
+        push_fixed(s, *v, 6);
+        s.push(',');
+    }
+    if p.skipped.is_some() {
+        s.push_str(",,,,");
     } else {
-        write!(
-            s,
-            "{:.3},{:.3},{:.3},{:.3},{:.3}",
+        let written = [
             a.xyz[0],
             a.xyz[1],
             a.xyz[2],
             a.tilt.to_degrees(),
-            a.c.to_degrees()
-        )
-    };
+            a.c.to_degrees(),
+        ];
+        for (k, v) in written.iter().enumerate() {
+            if k > 0 {
+                s.push(',');
+            }
+            push_fixed(s, *v, 3);
+        }
+    }
+    s.push(',');
+    push_fixed(s, p.e, 3);
+    s.push(',');
+    push_fixed(s, p.height, 4);
     let _ = writeln!(
         s,
-        ",{:.3},{:.4},{},{},{},{},{},{skipped}",
-        p.e,
-        p.height,
+        ",{},{},{},{},{},{skipped}",
         p.section_start as u8,
         p.break_before as u8,
         p.was_colliding as u8,
