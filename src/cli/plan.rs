@@ -244,26 +244,15 @@ pub fn run(a: PlanArgs) -> Result<()> {
         .into());
     }
 
+    // Planned: what is left is output. The program and the report are
+    // independent and written side by side.
+    let seconds = t0.elapsed().as_secs_f64();
     show.begin("writing");
-    let t1 = Instant::now();
     let command = std::env::args().collect::<Vec<_>>().join(" ");
     let header = GcodeHeader {
         source: job.source.clone(),
         command: command.clone(),
     };
-    let (gcode, csv) = rayon::join(
-        || write_gcode(&machine, &p.program, &header),
-        || write_plan_csv(&machine, &p.waypoints),
-    );
-    let write_s = t1.elapsed().as_secs_f64();
-    show.stage_line("write", write_s, None);
-    let mut stages = serde_json::Map::new();
-    stages.insert("load".into(), json!(load_s));
-    for s in &p.stages {
-        stages.insert(s.name.clone(), json!(s.seconds));
-    }
-    stages.insert("write".into(), json!(write_s));
-    let seconds = t0.elapsed().as_secs_f64();
     // Everything goes into a scratch folder beside DIR first; only when all
     // of it exists is it moved into DIR, so a failed run leaves nothing.
     let parent = out
@@ -283,22 +272,51 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let put = |name: &str, bytes: &[u8]| -> Result<()> {
         std::fs::write(scratch.path().join(name), bytes).with_context(|| format!("writing {name}"))
     };
-    put("toolpath.gcode", gcode.as_bytes())?;
-    put("plan.csv", csv.as_bytes())?;
+    let (written, drawn) = rayon::join(
+        || -> Result<f64> {
+            let t = Instant::now();
+            let (gcode, csv) = rayon::join(
+                || write_gcode(&machine, &p.program, &header),
+                || write_plan_csv(&machine, &p.waypoints),
+            );
+            put("toolpath.gcode", gcode.as_bytes())?;
+            put("plan.csv", csv.as_bytes())?;
+            Ok(t.elapsed().as_secs_f64())
+        },
+        || {
+            (!a.no_plots).then(|| {
+                let t = Instant::now();
+                // The figures and the scene file are independent too.
+                let (figs, glb) = rayon::join(
+                    || {
+                        maamplan::report::plots::write_figures(
+                            &machine,
+                            &p,
+                            &scratch.path().join("plots"),
+                        )
+                    },
+                    || maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
+                );
+                (figs, glb, t)
+            })
+        },
+    );
+    let write_s = written?;
+    show.stage_line("write", write_s, None);
+    let mut stages = serde_json::Map::new();
+    stages.insert("load".into(), json!(load_s));
+    for s in &p.stages {
+        stages.insert(s.name.clone(), json!(s.seconds));
+    }
+    stages.insert("write".into(), json!(write_s));
     let mut files = vec![
         "toolpath.gcode".to_string(),
         "plan.csv".to_string(),
         "report.json".to_string(),
     ];
     let flipped = job.flipped_names();
-    if !a.no_plots {
+    if let Some((figs, glb, t2)) = drawn {
         show.begin("report");
-        let t2 = Instant::now();
-        // The figures and the scene file are independent: side by side.
-        let (figs, glb) = rayon::join(
-            || maamplan::report::plots::write_figures(&machine, &p, &scratch.path().join("plots")),
-            || maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
-        );
         let figs = figs.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
         put("scene.glb", &glb)?;
         let html = maamplan::report::html::report_html(
