@@ -475,8 +475,11 @@ impl State<'_> {
     pub(super) fn refill(&mut self, which: &[usize]) -> Vec<usize> {
         let cap = self.opts.max_configs;
         // The feasible configurations of the next items, in parallel (IK
-        // and axis ranges per variant), then entered in order.
-        type Next = (usize, Vec<Vec<(Axes, Status)>>, u32);
+        // and axis ranges per variant), then entered in order. Each comes
+        // with the number of its item among the waypoint's new ones (its
+        // IK solutions share a pose): one flat list per waypoint, where a
+        // list per item had made this the tilted rows' peak of memory.
+        type Next = (usize, Vec<(u32, Axes, Status)>, u32);
         let next: Vec<Next> = which
             .par_iter()
             .filter(|&&g| self.cursor[g] != EXHAUSTED)
@@ -486,7 +489,6 @@ impl State<'_> {
                 let mut at = self.cursor[g] as usize;
                 let (mut got, mut count) = (Vec::new(), 0);
                 while at < items.len() && count < want {
-                    let mut c = Vec::new();
                     for (sol, &tc) in items[at].iter().enumerate() {
                         if let Some(a) = self.feasible(g, tc) {
                             let bit = 2 * at + sol;
@@ -496,10 +498,9 @@ impl State<'_> {
                             } else {
                                 Status::Unlikely
                             };
-                            c.push((a, status));
+                            got.push((at as u32, a, status));
                         }
                     }
-                    got.push(c);
                     at += 1;
                 }
                 let cursor = if at < items.len() {
@@ -510,16 +511,19 @@ impl State<'_> {
                 (g, got, cursor)
             })
             .collect();
-        for (g, items, cursor) in next {
+        for (g, configs, cursor) in next {
             self.cursor[g] = cursor;
-            for configs in items {
-                self.offered[g] |= !configs.is_empty();
-                let mut pose = self.next_pose(g);
-                for (a, status) in configs {
-                    let room = status == Status::Unlikely || self.live_count(g) < cap;
-                    if room && self.push_config(g, a, status, pose) {
-                        pose += (!self.symmetric) as u32;
-                    }
+            self.offered[g] |= !configs.is_empty();
+            let mut item = None;
+            let mut pose = 0;
+            for (at, a, status) in configs {
+                if item != Some(at) {
+                    item = Some(at);
+                    pose = self.next_pose(g);
+                }
+                let room = status == Status::Unlikely || self.live_count(g) < cap;
+                if room && self.push_config(g, a, status, pose) {
+                    pose += (!self.symmetric) as u32;
                 }
             }
         }
