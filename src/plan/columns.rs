@@ -526,6 +526,9 @@ impl State<'_> {
                     pose += (!self.symmetric) as u32;
                 }
             }
+            // Columns are long-lived (until the program): no spare room.
+            self.cols[g].shrink_to_fit();
+            self.nodes[g].shrink_to_fit();
         }
         let mut empty = Vec::new();
         for &g in which {
