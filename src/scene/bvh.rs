@@ -108,8 +108,8 @@ pub fn build(
         .collect();
     drop(bvh);
     fit_boxes(&mut nodes, &triangles);
-    let packed: Vec<u32> = nodes.iter().map(|n| n.packed).collect();
-    for (n, m) in nodes.iter_mut().zip(min_stamps(&packed, &triangles)) {
+    let mins = min_stamps(nodes.len(), |i| nodes[i].packed, &triangles);
+    for (n, m) in nodes.iter_mut().zip(mins) {
         n.min_stamp = m;
     }
     // Traversal keeps at most depth + 1 entries on its fixed-size stack.
@@ -125,9 +125,10 @@ pub fn build(
 /// the subtree of the pair before it, so a walk down the tree reads memory
 /// forward, and leaves renumbered in the order the walk meets them.
 /// Returns the nodes, for each new leaf slot the old one (the caller
-/// gathers the triangles in that order), and the deepest node's depth. PLOC and reinsertion leave the
-/// nodes in build order, where a parent and its children can lie
-/// megabytes apart; a query's few hundred node visits were cache misses.
+/// gathers the triangles in that order), and the deepest node's depth.
+/// PLOC and reinsertion leave the nodes in build order, where a parent
+/// and its children can lie megabytes apart; a query's few hundred node
+/// visits were cache misses.
 /// The tree (and so every traversal's sequence of nodes) is unchanged.
 fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>, usize) {
     let mut out = vec![GpuNode::default(); nodes.len()];
@@ -212,16 +213,16 @@ fn fit_boxes(nodes: &mut [GpuNode], tris: &[GpuTriangle]) {
     }
 }
 
-/// Every node's smallest stamp below it, for nodes given by their
+/// Every node's smallest stamp below it, for `n` nodes given by their
 /// `packed` words over `tris`.
-fn min_stamps(packed: &[u32], tris: &[GpuTriangle]) -> Vec<u32> {
+fn min_stamps(n: usize, packed: impl Fn(usize) -> u32, tris: &[GpuTriangle]) -> Vec<u32> {
     let leaf = |first: u32, count: u32| {
         (first..first + count)
             .map(|t| tris[t as usize].stamp)
             .min()
             .unwrap_or(u32::MAX)
     };
-    bottom_up(packed.len(), |i| packed[i], leaf, u32::min)
+    bottom_up(n, packed, leaf, u32::min)
 }
 
 /// Every node's largest stamp below it: a subtree whose stamps all lie
@@ -239,8 +240,8 @@ pub fn max_stamps(nodes: &[GpuPartNode], tris: &[GpuTriangle]) -> Vec<u32> {
 /// Recompute every node's minimum stamp from `tris` (after the
 /// triangles' stamps changed; the tree itself is kept).
 pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
-    let packed: Vec<u32> = nodes.iter().map(|n| n.packed).collect();
-    for (n, m) in nodes.iter_mut().zip(min_stamps(&packed, tris)) {
+    let mins = min_stamps(nodes.len(), |i| nodes[i].packed, tris);
+    for (n, m) in nodes.iter_mut().zip(mins) {
         n.min_stamp = m;
     }
 }
