@@ -1,4 +1,5 @@
-//! Mesh loading by extension: OBJ (`tobj`), STL ASCII and binary
+//! Mesh loading by extension: OBJ (`tobj`; plain files by
+//! [`super::obj_plain`], to the same mesh), STL ASCII and binary
 //! (`stl_io`), glTF/GLB (`gltf`, every triangle primitive with its node
 //! transform). Non-finite coordinates, bad indices and empty meshes are
 //! errors that name the file and, for text formats, the line.
@@ -44,41 +45,49 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, InputError> {
 /// load 0.61 s with it).
 fn load_obj(path: &Path) -> Result<Mesh, InputError> {
     let text = read_to_string(path)?;
+    // Plain files (every layer surface of the data set) are read in one
+    // pass into the mesh tobj would make; the rest, and every file with
+    // an error to name, go through tobj.
+    if let Some(mesh) = super::obj_plain::parse(&text) {
+        if mesh.vertices.iter().flatten().all(|x| x.is_finite()) {
+            return Ok(mesh);
+        }
+    }
     if has_short_face(&text) {
         check_obj(path, &text)?;
     }
+    match read_with_tobj(&text) {
+        Ok(mesh) if mesh.vertices.iter().flatten().all(|x| x.is_finite()) => Ok(mesh),
+        Ok(_) => {
+            check_obj(path, &text)?;
+            Err(InputError::file(
+                path,
+                "a vertex coordinate is not a finite number: re-export the mesh",
+            ))
+        }
+        Err(e) => {
+            check_obj(path, &text)?;
+            Err(InputError::file(
+                path,
+                format!("invalid OBJ ({e}): re-export the mesh"),
+            ))
+        }
+    }
+}
+
+/// The mesh `tobj` reads from OBJ `text` (triangulated, every object's
+/// faces in one mesh); the reference [`super::obj_plain`] is tested
+/// against.
+pub fn read_with_tobj(text: &str) -> Result<Mesh, tobj::LoadError> {
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let parsed = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
+    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
         Err(tobj::LoadError::GenericFailure)
-    });
-    let models = match parsed {
-        Ok((models, _))
-            if models
-                .iter()
-                .all(|m| m.mesh.positions.iter().all(|x| x.is_finite())) =>
-        {
-            models
-        }
-        Ok(_) => {
-            check_obj(path, &text)?;
-            return Err(InputError::file(
-                path,
-                "a vertex coordinate is not a finite number: re-export the mesh",
-            ));
-        }
-        Err(e) => {
-            check_obj(path, &text)?;
-            return Err(InputError::file(
-                path,
-                format!("invalid OBJ ({e}): re-export the mesh"),
-            ));
-        }
-    };
+    })?;
     let mut mesh = Mesh::default();
     for m in models {
         let base = mesh.vertices.len() as u32;
