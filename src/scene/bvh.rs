@@ -246,46 +246,31 @@ pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
     }
 }
 
-/// Triangles below each node.
-pub(crate) fn subtree_counts(nodes: &[GpuNode]) -> Vec<u32> {
+/// Each node's triangles as `(first, end)` in [`StampedBvh::triangles`]:
+/// the depth-first layout ([`depth_first`]) numbers a subtree's leaves
+/// one after another, so a subtree's triangles are one contiguous run.
+pub(crate) fn triangle_spans(nodes: &[GpuNode]) -> Vec<(u32, u32)> {
     bottom_up(
         nodes.len(),
         |i| nodes[i].packed,
-        |_, count| count,
-        |a, b| a + b,
+        |first, count| (first, first + count),
+        |a, b| (a.0.min(b.0), a.1.max(b.1)),
     )
 }
 
-/// `f` of every triangle below node `i` (by descent).
-pub(crate) fn for_each_triangle_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut(&GpuTriangle)) {
-    let mut stack = vec![i];
-    while let Some(j) = stack.pop() {
-        match bvh.nodes[j].leaf_range() {
-            Some((first, count)) => {
-                bvh.triangles[first as usize..(first + count) as usize]
-                    .iter()
-                    .for_each(&mut f);
-            }
-            None => {
-                let l = bvh.nodes[j].packed as usize;
-                stack.extend([l, l + 1]);
-            }
-        }
-    }
-}
-
-/// `f` of every triangle vertex below node `i` (by descent).
-pub(crate) fn for_each_vertex_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut([f32; 3])) {
-    for_each_triangle_below(bvh, i, |t| {
-        f(t.v0);
-        f(t.v1);
-        f(t.v2);
-    });
+/// Every triangle vertex of a span ([`triangle_spans`]).
+pub(crate) fn vertices_in(
+    bvh: &StampedBvh,
+    (first, end): (u32, u32),
+) -> impl Iterator<Item = [f32; 3]> + '_ {
+    bvh.triangles[first as usize..end as usize]
+        .iter()
+        .flat_map(|t| [t.v0, t.v1, t.v2])
 }
 
 /// Subtrees of at most this many triangles get the exact radius; above,
 /// a node's radius is the tighter of its box's and its children's spheres'
-/// bound (a descent from every node would cost O(n log n) vertex visits).
+/// bound (every node's span would cost O(n log n) vertex visits).
 const EXACT_SPHERE_TRIS: u32 = 64;
 
 /// The same tree as bounding spheres: centre = box centre, radius = the
@@ -310,21 +295,20 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
             slab_range: 0,
         })
         .collect();
-    let count = subtree_counts(nodes);
+    let spans = triangle_spans(nodes);
     let round_up = |r2: f64| (r2.sqrt() as f32).next_up();
-    // Exact radii of the small subtrees, by descent.
+    // Exact radii of the small subtrees, over their vertices.
     let exact: Vec<Option<f32>> = (0..nodes.len())
         .into_par_iter()
         .map(|i| {
-            if count[i] > EXACT_SPHERE_TRIS {
+            let (first, end) = spans[i];
+            if end - first > EXACT_SPHERE_TRIS {
                 return None;
             }
             let c = out[i].center.map(|x| x as f64);
-            let mut r2: f64 = 0.0;
-            for_each_vertex_below(bvh, i, |v| {
-                let d: f64 = (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum();
-                r2 = r2.max(d);
-            });
+            let r2 = vertices_in(bvh, spans[i])
+                .map(|v| (0..3).map(|k| (v[k] as f64 - c[k]).powi(2)).sum::<f64>())
+                .fold(0.0f64, f64::max);
             Some(round_up(r2))
         })
         .collect();
@@ -460,6 +444,44 @@ mod tests {
         out
     }
 
+    /// Triangles below each node, by descent: the plain loop the spans
+    /// are checked against.
+    fn for_each_triangle_below(bvh: &StampedBvh, i: usize, mut f: impl FnMut(&GpuTriangle)) {
+        let mut stack = vec![i];
+        while let Some(j) = stack.pop() {
+            match bvh.nodes[j].leaf_range() {
+                Some((first, count)) => {
+                    bvh.triangles[first as usize..(first + count) as usize]
+                        .iter()
+                        .for_each(&mut f);
+                }
+                None => {
+                    let l = bvh.nodes[j].packed as usize;
+                    stack.extend([l, l + 1]);
+                }
+            }
+        }
+    }
+
+    /// Every subtree's triangles are the contiguous span the layout gives
+    /// it: the same triangles as a descent finds, each once.
+    #[test]
+    fn every_subtree_is_one_span_of_triangles() {
+        let bvh = build(&soup(3000), 4, 0.0).unwrap();
+        let spans = triangle_spans(&bvh.nodes);
+        for (i, &(first, end)) in spans.iter().enumerate() {
+            let mut below = Vec::new();
+            for_each_triangle_below(&bvh, i, |t| below.push(t.source));
+            below.sort_unstable();
+            let mut span: Vec<u32> = bvh.triangles[first as usize..end as usize]
+                .iter()
+                .map(|t| t.source)
+                .collect();
+            span.sort_unstable();
+            assert_eq!(span, below, "node {i}");
+        }
+    }
+
     /// Lifted by layer, the nodes of 17 to 64 triangles (patches of a few
     /// mm) hold one layer each, where in a tree built in true space most
     /// of them mix layers stacked 0.4 mm apart (on this sheet: 1 in 4 of
@@ -470,9 +492,10 @@ mod tests {
     fn lifted_builds_keep_layers_apart_in_true_boxes() {
         let tris = stacked(6);
         let one_layer = |b: &StampedBvh| {
-            let counts = subtree_counts(&b.nodes);
+            let spans = triangle_spans(&b.nodes);
             let (mut nodes, mut single) = (0, 0);
-            for i in (0..b.nodes.len()).filter(|&i| (17..=64).contains(&counts[i])) {
+            for i in (0..b.nodes.len()).filter(|&i| (17..=64).contains(&(spans[i].1 - spans[i].0)))
+            {
                 let mut layers = Vec::new();
                 for_each_triangle_below(b, i, |t| layers.push(t.layer));
                 nodes += 1;

@@ -20,15 +20,16 @@
 //! by one step more than the encoding needs so a GPU's own rounding of
 //! the decode stays inside.
 
-use super::bvh::{for_each_vertex_below, subtree_counts, StampedBvh};
+use super::bvh::{triangle_spans, vertices_in, StampedBvh};
 use super::gpu_types::GpuPartNode;
 use rayon::prelude::*;
 
 /// Cells per cube-map face side of the head's support function.
 pub const SUPPORT_SIDE: u32 = 32;
 
-/// Subtrees of at most this many triangles get the exact interval (by
-/// descent); larger ones one from their children's slabs and their box.
+/// Subtrees of at most this many triangles get the exact interval (over
+/// their span of triangles); larger ones one from their children's slabs
+/// and their box.
 const EXACT_SLAB_TRIS: u32 = 64;
 
 /// Fill every node's slab words (nodes as [`super::bvh::sphere_nodes`]
@@ -54,66 +55,58 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
             }
         };
     }
-    // The normal as stored, and as every reader decodes it.
-    let normal: Vec<(u32, [f64; 3])> = sum
-        .par_iter()
-        .map(|s| {
-            let w = oct_encode(*s);
-            (w, oct_decode(unpack_snorm2x16(w)).map(|x| x as f64))
-        })
-        .collect();
+    // The normal as stored; every reader decodes it (`decoded`).
+    let normal: Vec<u32> = sum.par_iter().map(|s| oct_encode(*s)).collect();
     drop(sum);
+    let decoded = |i: usize| oct_decode(unpack_snorm2x16(normal[i])).map(|x| x as f64);
     let centre = |i: usize| spheres[i].center.map(|x| x as f64);
-    let count = subtree_counts(nodes);
-    // Exact intervals of n · (x − centre) for small subtrees.
-    let exact: Vec<Option<[f64; 2]>> = (0..nodes.len())
+    let spans = triangle_spans(nodes);
+    // Exact intervals of n · (x − centre) for small subtrees; the others
+    // (NaN here) children first below.
+    let mut range: Vec<[f64; 2]> = (0..nodes.len())
         .into_par_iter()
         .map(|i| {
-            if count[i] > EXACT_SLAB_TRIS {
-                return None;
+            let (first, end) = spans[i];
+            if end - first > EXACT_SLAB_TRIS {
+                return [f64::NAN; 2];
             }
-            let (n, c) = (normal[i].1, centre(i));
-            let mut r = [f64::INFINITY, f64::NEG_INFINITY];
-            for_each_vertex_below(bvh, i, |v| {
+            let (n, c) = (decoded(i), centre(i));
+            vertices_in(bvh, spans[i]).fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| {
                 let d = dot(n, sub(v.map(|x| x as f64), c));
-                r = [r[0].min(d), r[1].max(d)];
-            });
-            Some(r)
+                [r[0].min(d), r[1].max(d)]
+            })
         })
         .collect();
-    // The others, children first.
-    let mut range = vec![[0f64; 2]; nodes.len()];
+    drop(spans);
     for i in (0..nodes.len()).rev() {
-        let (n, c) = (normal[i].1, centre(i));
-        range[i] = match exact[i] {
-            Some(r) => r,
-            None => {
-                let b = &nodes[i];
-                let mid = dot(
-                    n,
-                    sub(
-                        std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64)),
-                        c,
-                    ),
-                );
-                let half: f64 = (0..3)
-                    .map(|k| n[k].abs() * 0.5 * (b.max[k] as f64 - b.min[k] as f64))
-                    .sum();
-                let child = |j: usize| {
-                    child_interval(n, c, normal[j].1, centre(j), range[j], spheres[j].radius)
-                };
-                let l = b.packed as usize;
-                let ([l0, l1], [r0, r1]) = (child(l), child(l + 1));
-                [(mid - half).max(l0.min(r0)), (mid + half).min(l1.max(r1))]
-            }
-        };
+        if !range[i][0].is_nan() {
+            continue;
+        }
+        let (n, c) = (decoded(i), centre(i));
+        let b = &nodes[i];
+        let mid = dot(
+            n,
+            sub(
+                std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64)),
+                c,
+            ),
+        );
+        let half: f64 = (0..3)
+            .map(|k| n[k].abs() * 0.5 * (b.max[k] as f64 - b.min[k] as f64))
+            .sum();
+        let child =
+            |j: usize| child_interval(n, c, decoded(j), centre(j), range[j], spheres[j].radius);
+        let l = b.packed as usize;
+        let ([l0, l1], [r0, r1]) = (child(l), child(l + 1));
+        range[i] = [(mid - half).max(l0.min(r0)), (mid + half).min(l1.max(r1))];
     }
-    let words: Vec<(u32, u32)> = (0..nodes.len())
-        .into_par_iter()
-        .map(|i| {
-            let [lo, hi] = range[i];
-            let r = spheres[i].radius as f64;
-            let range = if r > 0.0 && lo.is_finite() && hi.is_finite() {
+    spheres
+        .par_iter_mut()
+        .zip(range)
+        .zip(normal)
+        .for_each(|((node, [lo, hi]), normal)| {
+            let r = node.radius as f64;
+            node.slab_range = if r > 0.0 && lo.is_finite() && hi.is_finite() {
                 // Outwards, and one step more for a GPU's decode.
                 let q = |x: f64| (x / r * SNORM).clamp(-SNORM, SNORM);
                 let lo = (q(lo).floor() - 1.0).max(-SNORM) as i32;
@@ -122,13 +115,8 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
             } else {
                 pack_i16(-SNORM as i32, SNORM as i32)
             };
-            (normal[i].0, range)
-        })
-        .collect();
-    for (node, (normal, range)) in spheres.iter_mut().zip(words) {
-        node.slab_normal = normal;
-        node.slab_range = range;
-    }
+            node.slab_normal = normal;
+        });
 }
 
 /// The interval of `n · (x − c)` over a child's points, from the child's
