@@ -132,11 +132,32 @@ pub fn write_figures(m: &Machine, plan: &Plan, dir: &Path) -> Result<Vec<Figure>
         .map(|c| {
             let f = c.svg(m, plan)?;
             std::fs::write(dir.join(format!("{}.svg", f.name)), f.svg.as_bytes()).map_err(err)?;
-            let png = dir.join(format!("{}.png", f.name));
-            c.draw(BitMapBackend::new(&png, SIZE).into_drawing_area(), m, plan)?;
+            let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
+            c.draw(
+                BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(),
+                m,
+                plan,
+            )?;
+            write_png(&dir.join(format!("{}.png", f.name)), &rgb)?;
             Ok(f)
         })
         .collect()
+}
+
+/// Write an RGB image of [`SIZE`] as PNG: fdeflate's fast mode and the
+/// Paeth filter on every row. plotters' own encoder (through image 0.24)
+/// tried every filter on every row: 1.2 % of `plan simple_curve`'s CPU,
+/// 0.4 % now, for a plots folder of about the same size.
+fn write_png(path: &Path, rgb: &[u8]) -> Result<(), String> {
+    let file = std::io::BufWriter::new(std::fs::File::create(path).map_err(err)?);
+    let mut png = png::Encoder::new(file, SIZE.0, SIZE.1);
+    png.set_color(png::ColorType::Rgb);
+    png.set_depth(png::BitDepth::Eight);
+    png.set_compression(png::Compression::Fast);
+    png.set_filter(png::Filter::Paeth);
+    let mut writer = png.write_header().map_err(err)?;
+    writer.write_image_data(rgb).map_err(err)?;
+    writer.finish().map_err(err)
 }
 
 /// Buckets along x a per-waypoint line is drawn with (a few per pixel
