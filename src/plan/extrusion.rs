@@ -81,6 +81,27 @@ struct Below<'a> {
     /// ([`crate::scene::bvh`]), so the layers under a waypoint are
     /// subtrees of their own and those past the window cost one visit.
     max_stamp: Vec<u32>,
+    /// Each node's slab, decoded once ([`Slab`]).
+    slabs: Vec<Slab>,
+}
+
+/// A node's slab as [`distance_bound`] reads it: the unit normal and the
+/// interval (in units of the node's radius), decoded from the node's
+/// words once for the stage instead of at every visit (the decode's
+/// square root and division were the walk's slowest steps).
+#[derive(Clone, Copy)]
+struct Slab {
+    normal: [f32; 3],
+    range: [f32; 2],
+}
+
+impl Slab {
+    fn of(node: &GpuPartNode) -> Slab {
+        Slab {
+            normal: oct_decode(unpack_snorm2x16(node.slab_normal)),
+            range: unpack_snorm2x16(node.slab_range),
+        }
+    }
 }
 
 impl<'a> Below<'a> {
@@ -90,6 +111,7 @@ impl<'a> Below<'a> {
             layer_start,
             lookback,
             max_stamp: bvh::max_stamps(&scene.part_nodes, &scene.part_tris),
+            slabs: scene.part_nodes.par_iter().map(Slab::of).collect(),
         }
     }
 
@@ -133,7 +155,7 @@ impl<'a> Below<'a> {
             if node.min_stamp >= cutoff || too_old {
                 return None;
             }
-            let b = distance_bound(p, node, best);
+            let b = distance_bound(p, node, &self.slabs[i as usize], best);
             (b < best).then_some(b)
         };
         // Nodes with their bounds, nearer child popped first.
@@ -178,19 +200,26 @@ impl<'a> Below<'a> {
 /// larger of its sphere's and its slab's (every vertex below lies in the
 /// sphere and in the slab `lo ≤ n · (x − c) ≤ hi`, so every point of its
 /// triangles does); the slab only when the sphere does not already reach
-/// `best`. A waypoint sits a layer height above the patch it
+/// `best`, and `best` itself when the sphere clearly does. A waypoint sits a layer height above the patch it
 /// rests on and more above the patches of the layers before; the spheres
 /// of those patches reach it, their slabs do not.
-fn distance_bound(p: [f64; 3], node: &GpuPartNode, best: f64) -> f64 {
+fn distance_bound(p: [f64; 3], node: &GpuPartNode, slab: &Slab, best: f64) -> f64 {
     let c = node.center.map(|x| x as f64);
     let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
     let r = node.radius as f64;
-    let sphere = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() - r;
+    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    // Clearly beyond `best` by the sphere (a relative 1e-9 more than
+    // rounding can move the comparison): no square root.
+    let reach = best + r;
+    if reach >= 0.0 && d2 > reach * reach * (1.0 + 1e-9) {
+        return best;
+    }
+    let sphere = d2.sqrt() - r;
     if sphere >= best {
         return sphere;
     }
-    let [lo, hi] = unpack_snorm2x16(node.slab_range);
-    let n = oct_decode(unpack_snorm2x16(node.slab_normal)).map(|x| x as f64);
+    let [lo, hi] = slab.range;
+    let n = slab.normal.map(|x| x as f64);
     // `n` is unit up to f32 rounding, and a millionth of the node's reach
     // covers that and the rounding here.
     let along = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
