@@ -32,18 +32,17 @@ pub fn parse(text: &str) -> Option<Mesh> {
     }
     let mut positions: Vec<[f32; 3]> = Vec::with_capacity(text.len() / 64);
     let mut corners: Vec<u32> = Vec::with_capacity(text.len() / 16);
-    for line in text.as_bytes().split(|&b| b == b'\n') {
+    for line in text.split('\n') {
+        // ASCII throughout, so splitting at characters splits at bytes.
         let mut words = line
-            .split(|&b| is_space(b))
-            .filter(|w| !w.is_empty())
-            // ASCII throughout, so every word is valid UTF-8.
-            .map(|w| std::str::from_utf8(w).ok());
+            .split(|c: char| is_space(c as u8))
+            .filter(|w| !w.is_empty());
         let Some(first) = words.next() else { continue };
-        match first? {
+        match first {
             "v" => {
                 let mut p = [0.0f32; 3];
                 for x in &mut p {
-                    *x = words.next()??.parse().ok()?;
+                    *x = words.next()?.parse().ok()?;
                 }
                 if words.next().is_some() {
                     return None;
@@ -52,7 +51,7 @@ pub fn parse(text: &str) -> Option<Mesh> {
             }
             "f" => {
                 for _ in 0..3 {
-                    let i: u32 = words.next()??.parse().ok()?;
+                    let i: u32 = words.next()?.parse().ok()?;
                     corners.push(i.checked_sub(1)?);
                 }
                 if words.next().is_some() {
