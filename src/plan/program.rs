@@ -629,3 +629,16 @@ pub fn failing_steps(
     out.dedup();
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A program is mostly print moves: a step must cost no more than a
+    /// move (travels are boxed), or a million-step program holds ~0.13 GB
+    /// more.
+    #[test]
+    fn a_step_is_no_larger_than_a_move() {
+        assert_eq!(std::mem::size_of::<Step>(), std::mem::size_of::<Move>());
+    }
+}
