@@ -687,10 +687,24 @@ impl<'a> State<'a> {
                 at[g] = Some(mv.to);
             }
         }
-        let visited: Vec<(Axes, u32)> = (0..n)
-            .filter_map(|g| at[g].map(|a| (a, cutoff(g))))
-            .collect();
-        let pose_hits = prover.poses_at(&visited, prover.margin)?;
+        // What needs the moves themselves first; the checks below need
+        // only their specs, so the moves (136 bytes each) are let go
+        // before the prover's own work.
+        let dev = largest_tip_deviation(m, &moves);
+        let mut travel_c: f64 = 0.0;
+        let mut run_c = 0.0;
+        let mut axis_limit_violations = 0;
+        for (from, mv) in &moves {
+            if mv.kind.extrudes() {
+                travel_c = travel_c.max(run_c);
+                run_c = 0.0;
+            } else {
+                run_c += (mv.to.c - from.c).abs().to_degrees();
+            }
+            if metrics::outside_limits(m, &mv.to) {
+                axis_limit_violations += 1;
+            }
+        }
         let specs: Vec<MoveSpec> = moves
             .iter()
             .filter(|(from, mv)| *from != mv.to)
@@ -700,6 +714,11 @@ impl<'a> State<'a> {
                 cutoff: mv.cutoff,
             })
             .collect();
+        drop(moves);
+        let visited: Vec<(Axes, u32)> = (0..n)
+            .filter_map(|g| at[g].map(|a| (a, cutoff(g))))
+            .collect();
+        let pose_hits = prover.poses_at(&visited, prover.margin)?;
         let move_hits = prover.moves(&specs)?;
 
         let mut out = Metrics {
@@ -707,6 +726,7 @@ impl<'a> State<'a> {
             residual_collisions: pose_hits.iter().filter(|&&h| h).count(),
             colliding_edges: move_hits.iter().filter(|&&h| h).count(),
             program_moves: specs.len(),
+            axis_limit_violations,
             ..Metrics::default()
         };
         // Segments printed between consecutive visited waypoints.
@@ -731,20 +751,6 @@ impl<'a> State<'a> {
         stats.finish(&mut out);
         out.height_clamped_pct = 100.0 * clamped as f64 / segments.max(1) as f64;
         // Tip deviation and travel rotation of the written moves.
-        let dev = largest_tip_deviation(m, &moves);
-        let mut travel_c: f64 = 0.0;
-        let mut run_c = 0.0;
-        for (from, mv) in &moves {
-            if mv.kind.extrudes() {
-                travel_c = travel_c.max(run_c);
-                run_c = 0.0;
-            } else {
-                run_c += (mv.to.c - from.c).abs().to_degrees();
-            }
-            if metrics::outside_limits(m, &mv.to) {
-                out.axis_limit_violations += 1;
-            }
-        }
         out.tip_deviation_max_mm = dev;
         out.travel_c_max_deg = travel_c.max(run_c);
         out.breaks = self
