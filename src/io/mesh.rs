@@ -46,17 +46,17 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, InputError> {
 fn load_obj(path: &Path) -> Result<Mesh, InputError> {
     let text = read_to_string(path)?;
     // Plain files (every layer surface of the data set) are read in one
-    // pass into the mesh tobj would make; the rest, and every file with
-    // an error to name, go through tobj.
-    if let Some(mesh) = super::obj_plain::parse(&text) {
-        if mesh.vertices.iter().flatten().all(|x| x.is_finite()) {
-            return Ok(mesh);
+    // pass into the mesh tobj would make; the rest go through tobj.
+    let read = match super::obj_plain::parse(&text) {
+        Some(mesh) => Ok(mesh),
+        None => {
+            if has_short_face(&text) {
+                check_obj(path, &text)?;
+            }
+            read_with_tobj(&text)
         }
-    }
-    if has_short_face(&text) {
-        check_obj(path, &text)?;
-    }
-    match read_with_tobj(&text) {
+    };
+    match read {
         Ok(mesh) if mesh.vertices.iter().flatten().all(|x| x.is_finite()) => Ok(mesh),
         Ok(_) => {
             check_obj(path, &text)?;

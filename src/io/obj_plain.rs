@@ -18,10 +18,10 @@ use crate::geometry::Mesh;
 /// is left to it. Every other statement is ignored by both.
 const LEFT_TO_TOBJ: [&str; 7] = ["vt", "vn", "l", "o", "g", "mtllib", "usemtl"];
 
-/// `true` for the bytes Rust's `char::is_whitespace` (which `tobj`'s
-/// `split_whitespace` uses) counts as white space among ASCII.
-fn is_space(b: u8) -> bool {
-    matches!(b, b' ' | b'\t' | b'\n' | 0x0b | 0x0c | b'\r')
+/// `true` for the ASCII characters Rust's `char::is_whitespace` (which
+/// `tobj`'s `split_whitespace` uses) counts as white space.
+fn is_space(c: char) -> bool {
+    matches!(c, ' ' | '\t' | '\n' | '\x0b' | '\x0c' | '\r')
 }
 
 /// The mesh `tobj` reads from `text`, if `text` is plain OBJ (module
@@ -33,10 +33,7 @@ pub fn parse(text: &str) -> Option<Mesh> {
     let mut positions: Vec<[f32; 3]> = Vec::with_capacity(text.len() / 64);
     let mut corners: Vec<u32> = Vec::with_capacity(text.len() / 16);
     for line in text.split('\n') {
-        // ASCII throughout, so splitting at characters splits at bytes.
-        let mut words = line
-            .split(|c: char| is_space(c as u8))
-            .filter(|w| !w.is_empty());
+        let mut words = line.split(is_space).filter(|w| !w.is_empty());
         let Some(first) = words.next() else { continue };
         match first {
             "v" => {

@@ -200,9 +200,10 @@ impl<'a> Below<'a> {
 /// larger of its sphere's and its slab's (every vertex below lies in the
 /// sphere and in the slab `lo ≤ n · (x − c) ≤ hi`, so every point of its
 /// triangles does); the slab only when the sphere does not already reach
-/// `best`, and `best` itself when the sphere clearly does. A waypoint sits a layer height above the patch it
-/// rests on and more above the patches of the layers before; the spheres
-/// of those patches reach it, their slabs do not.
+/// `best`, and `best` itself when the sphere clearly does. A waypoint
+/// sits a layer height above the patch it rests on and more above the
+/// patches of the layers before; the spheres of those patches reach it,
+/// their slabs do not.
 fn distance_bound(p: [f64; 3], node: &GpuPartNode, slab: &Slab, best: f64) -> f64 {
     let c = node.center.map(|x| x as f64);
     let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];

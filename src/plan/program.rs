@@ -101,7 +101,7 @@ pub struct Travel {
 pub enum Step {
     /// A move.
     Move(Move),
-    /// A travel (expands to several moves, see [`Travel::moves`]); boxed,
+    /// A travel (expands to several moves, see [`Travel::items`]); boxed,
     /// as travels are few and a `Travel` is 2.4 times a `Move`: a program
     /// is mostly print moves, and a million steps of the larger size held
     /// ~0.13 GB more (and more again while the list grew).
