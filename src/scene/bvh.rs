@@ -18,11 +18,13 @@
 use super::gpu_types::STACK_SIZE;
 use super::gpu_types::{GpuNode, GpuPartNode, GpuTriangle, MAX_LEAF_TRIS, MAX_TRIS};
 use super::SceneError;
-use obvhs::bvh2::builder::build_bvh2_from_tris;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
+use obvhs::bvh2::Bvh2;
+use obvhs::ploc::PlocBuilder;
 use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
-use std::time::Duration;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 /// A BVH and its triangles, reordered so each leaf's triangles are contiguous.
 #[derive(Clone, Debug)]
@@ -56,7 +58,7 @@ pub fn build(
         return Err(SceneError::TooLarge(tris.len()));
     }
     let obv: Vec<Triangle> = tris
-        .iter()
+        .par_iter()
         .map(|t| {
             let lift = match t.layer {
                 u32::MAX => -layer_lift,
@@ -73,35 +75,28 @@ pub fn build(
     // obvhs's fast preset: against medium_build, dome_cut's build 2.5 →
     // 1.9 s, and whole plans 5–10 % faster on every shared model (paired
     // runs, BENCHMARKS.md); very_fast_build's tree costs the queries more
-    // than its build saves.
+    // than its build saves. Its steps run as obvhs's
+    // `build_bvh2_from_tris` runs them, but for the leaf collapse, which
+    // the layout does on its way ([`lay_out`]); the preset's second
+    // reinsertion pass, after the collapse, has a batch of 0 (none).
     let mut params = BvhBuildParams::fast_build();
     params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
-    let bvh = build_bvh2_from_tris(&obv, params, &mut Duration::default());
+    let mut bvh = PlocBuilder::with_capacity(obv.len()).build(
+        params.ploc_search_distance,
+        &obv,
+        (0..obv.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
     drop(obv);
-
-    let mut nodes = Vec::with_capacity(bvh.nodes.len());
-    for n in &bvh.nodes {
-        let packed = if n.prim_count > 0 {
-            if n.prim_count > MAX_LEAF_TRIS {
-                return Err(SceneError::Internal(format!(
-                    "BVH leaf with {} triangles (max {MAX_LEAF_TRIS})",
-                    n.prim_count
-                )));
-            }
-            GpuNode::pack_leaf(n.first_index, n.prim_count)
-        } else {
-            n.first_index
-        };
-        nodes.push(GpuNode {
-            min: n.aabb.min.into(),
-            packed,
-            max: n.aabb.max.into(),
-            min_stamp: u32::MAX,
-        });
-    }
+    ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+    let collapse = Collapse {
+        max_prims: params.max_prims_per_leaf,
+        traversal_cost: params.collapse_traversal_cost,
+    };
     // Leaf ranges index `primitive_indices`; laid out depth first they
     // index the triangles, gathered once in that order.
-    let (mut nodes, order, max_depth) = depth_first(&nodes);
+    let (mut nodes, order, max_depth) = lay_out(&bvh, collapse)?;
     let triangles: Vec<GpuTriangle> = order
         .par_iter()
         .map(|&k| tris[bvh.primitive_indices[k as usize] as usize])
@@ -114,56 +109,269 @@ pub fn build(
     }
     // Traversal keeps at most depth + 1 entries on its fixed-size stack.
     if max_depth + 2 > STACK_SIZE {
-        return Err(SceneError::Internal(format!(
-            "BVH depth {max_depth} exceeds the traversal stack ({STACK_SIZE})"
-        )));
+        return Err(too_deep(max_depth));
     }
     Ok(StampedBvh { nodes, triangles })
 }
 
-/// The same tree laid out depth first: each pair of children stored after
-/// the subtree of the pair before it, so a walk down the tree reads memory
-/// forward, and leaves renumbered in the order the walk meets them.
-/// Returns the nodes, for each new leaf slot the old one (the caller
-/// gathers the triangles in that order), and the deepest node's depth.
-/// PLOC and reinsertion leave the nodes in build order, where a parent
-/// and its children can lie megabytes apart; a query's few hundred node
-/// visits were cache misses.
-/// The tree (and so every traversal's sequence of nodes) is unchanged.
-fn depth_first(nodes: &[GpuNode]) -> (Vec<GpuNode>, Vec<u32>, usize) {
-    let mut out = vec![GpuNode::default(); nodes.len()];
-    let mut order = Vec::new();
-    out[0] = nodes[0];
-    let mut next = 1usize;
-    let mut depth = 0;
-    // (old index, new index, depth), left children popped first.
-    let mut stack = vec![(0usize, 0usize, 0usize)];
-    while let Some((old, new, d)) = stack.pop() {
-        depth = depth.max(d);
-        match nodes[old].leaf_range() {
-            Some((first, count)) => {
-                let start = order.len() as u32;
-                order.extend(first..first + count);
-                out[new].packed = GpuNode::pack_leaf(start, count);
-            }
-            None => {
-                let l = nodes[old].packed as usize;
-                out[next] = nodes[l];
-                out[next + 1] = nodes[l + 1];
-                out[new].packed = next as u32;
-                stack.extend([(l + 1, next + 1, d + 1), (l, next, d + 1)]);
-                next += 2;
-            }
+/// obvhs's SAH leaf collapse (`obvhs::bvh2::leaf_collapser::collapse`,
+/// its rule and arithmetic in version 0.4): from the leaves up, a node
+/// whose children are both leaves of together at most `max_prims`
+/// triangles becomes one leaf when its box's half area times
+/// (`count − traversal_cost`) is no more than its children's half areas
+/// times their counts. (obvhs also joins two leaves holding the same
+/// primitive, which only its spatial splits make.)
+#[derive(Clone, Copy, Debug)]
+struct Collapse {
+    max_prims: u32,
+    traversal_cost: f32,
+}
+
+impl Collapse {
+    /// Does it leave `bvh` as it is (obvhs's early returns: trees too
+    /// small to collapse)?
+    fn skips(&self, bvh: &Bvh2) -> bool {
+        self.max_prims <= 1
+            || bvh.nodes.len() as u32 <= self.max_prims * 2 + 1
+            || bvh.primitive_indices.len() as u32 <= self.max_prims
+            || bvh.nodes[0].is_leaf()
+    }
+
+    /// The triangles inner node `i` holds as a leaf once collapsed, its
+    /// children holding `lc` and `rc` as leaves (0: inner); 0 if it
+    /// stays inner.
+    fn count(&self, bvh: &Bvh2, i: usize, lc: u32, rc: u32) -> u32 {
+        let total = lc + rc;
+        if lc == 0 || rc == 0 || total > self.max_prims {
+            return 0;
+        }
+        let node = &bvh.nodes[i];
+        let l = node.first_index as usize;
+        let (left, right) = (&bvh.nodes[l], &bvh.nodes[l + 1]);
+        let collapse_cost = node.aabb.half_area() * (total as f32 - self.traversal_cost);
+        let base_cost = left.aabb.half_area() * lc as f32 + right.aabb.half_area() * rc as f32;
+        if collapse_cost <= base_cost {
+            total
+        } else {
+            0
         }
     }
-    out.truncate(next);
-    (out, order, depth)
+}
+
+/// What the layout needs of a subtree of the collapsed tree: the
+/// triangles its root holds as a leaf (0: inner), its leaves and its
+/// triangles — packed in one word per node of obvhs's tree (8, 27 and 27
+/// bits: [`MAX_TRIS`] is 2²⁷).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Subtree {
+    count: u32,
+    leaves: u32,
+    prims: u32,
+}
+
+impl Subtree {
+    fn pack(self) -> u64 {
+        (self.count as u64) << 54 | (self.leaves as u64) << 27 | self.prims as u64
+    }
+
+    fn unpack(w: u64) -> Subtree {
+        let field = (1u64 << 27) - 1;
+        Subtree {
+            count: (w >> 54) as u32,
+            leaves: ((w >> 27) & field) as u32,
+            prims: (w & field) as u32,
+        }
+    }
+
+    /// Nodes below its root in the laid-out tree (`2 · leaves − 1` in
+    /// all).
+    fn descendants(&self) -> usize {
+        2 * self.leaves as usize - 2
+    }
+}
+
+/// The measuring walk splits between threads down to this depth (sizes
+/// are known only on the way back up); the writing walk splits subtrees
+/// of more than [`PARALLEL_PRIMS`] triangles.
+const PARALLEL_DEPTH: usize = 8;
+
+/// See [`PARALLEL_DEPTH`].
+const PARALLEL_PRIMS: u32 = 1 << 14;
+
+/// obvhs's tree `bvh`, collapsed ([`Collapse`]) and laid out depth first:
+/// each pair of children stored after the subtree of the pair before it,
+/// so a walk down the tree reads memory forward, and leaves renumbered in
+/// the order the walk meets them. Returns the nodes (boxes as built, no
+/// stamps yet), for each new leaf slot the slot of
+/// `bvh.primitive_indices` it holds (the caller gathers the triangles in
+/// that order), and the deepest node's depth. PLOC and reinsertion leave
+/// the nodes in build order, where a parent and its children can lie
+/// megabytes apart: a query's few hundred node visits were cache misses.
+///
+/// Two walks over obvhs's nodes, each with large subtrees' halves on
+/// different threads: the first measures every subtree from the leaves
+/// up ([`measure`], the collapse included), the second writes each
+/// subtree into the slots the first found for it ([`write`]). obvhs's
+/// own collapse rebuilds its node array and parent links, and with the
+/// copy and walk this replaces took longer (dome_cut's 2.2 M-triangle
+/// build on two cores: 0.60 → 0.35 s); the tree, and so the layout, are
+/// the same (test `the_layout_walks_obvhs_collapsed_tree`).
+fn lay_out(bvh: &Bvh2, collapse: Collapse) -> Result<(Vec<GpuNode>, Vec<u32>, usize), SceneError> {
+    let measured: Vec<AtomicU64> = (0..bvh.nodes.len()).map(|_| AtomicU64::new(0)).collect();
+    let rule = (!collapse.skips(bvh)).then_some(collapse);
+    let root = measure(bvh, 0, 0, rule, &measured)?;
+    let at = |i: usize| Subtree::unpack(measured[i].load(Ordering::Relaxed));
+    let mut nodes = vec![GpuNode::default(); 1 + root.descendants()];
+    let mut order = vec![0u32; root.prims as usize];
+    let (slot, below) = nodes.split_at_mut(1);
+    let depth = write(bvh, &at, 0, 0, &mut slot[0], (below, 1), (&mut order, 0))?;
+    Ok((nodes, order, depth))
+}
+
+/// [`Subtree`] of node `i` (at `depth`), stored for it and every node
+/// below it into `out`; leaves collapsed by `rule` (none: kept). A tree
+/// too deep for the traversal stack is refused here, before the walk
+/// could recurse that deep: a collapse lifts leaves by at most
+/// [`MAX_LEAF_TRIS`] levels.
+fn measure(
+    bvh: &Bvh2,
+    i: usize,
+    depth: usize,
+    rule: Option<Collapse>,
+    out: &[AtomicU64],
+) -> Result<Subtree, SceneError> {
+    if depth > STACK_SIZE + MAX_LEAF_TRIS as usize {
+        return Err(too_deep(depth));
+    }
+    let node = &bvh.nodes[i];
+    let sub = if node.is_leaf() {
+        Subtree {
+            count: node.prim_count,
+            leaves: 1,
+            prims: node.prim_count,
+        }
+    } else {
+        let l = node.first_index as usize;
+        let half = |j| measure(bvh, j, depth + 1, rule, out);
+        let (left, right) = if depth < PARALLEL_DEPTH {
+            rayon::join(|| half(l), || half(l + 1))
+        } else {
+            (half(l), half(l + 1))
+        };
+        let (left, right) = (left?, right?);
+        let count = rule.map_or(0, |r| r.count(bvh, i, left.count, right.count));
+        Subtree {
+            count,
+            leaves: if count > 0 {
+                1
+            } else {
+                left.leaves + right.leaves
+            },
+            prims: left.prims + right.prims,
+        }
+    };
+    out[i].store(sub.pack(), Ordering::Relaxed);
+    Ok(sub)
+}
+
+/// The error for a tree deeper than the traversal stack.
+fn too_deep(depth: usize) -> SceneError {
+    SceneError::Internal(format!(
+        "BVH depth {depth} exceeds the traversal stack ({STACK_SIZE})"
+    ))
+}
+
+/// Lay out the subtree of node `i` (at `depth`, its [`Subtree`]s given
+/// by `at`): its own node into `slot`, the nodes below it into `below`
+/// (whose first slot is node `base` of the whole layout), its triangles'
+/// slots into `order` (whose first is leaf slot `first`). Returns the
+/// deepest depth below.
+fn write(
+    bvh: &Bvh2,
+    at: &(dyn Fn(usize) -> Subtree + Sync),
+    i: usize,
+    depth: usize,
+    slot: &mut GpuNode,
+    (below, base): (&mut [GpuNode], usize),
+    (order, first): (&mut [u32], u32),
+) -> Result<usize, SceneError> {
+    let node = &bvh.nodes[i];
+    *slot = GpuNode {
+        min: node.aabb.min.into(),
+        packed: 0,
+        max: node.aabb.max.into(),
+        min_stamp: u32::MAX,
+    };
+    let sub = at(i);
+    if sub.count > 0 {
+        if sub.count > MAX_LEAF_TRIS {
+            return Err(SceneError::Internal(format!(
+                "BVH leaf with {} triangles (max {MAX_LEAF_TRIS})",
+                sub.count
+            )));
+        }
+        // The triangles of the leaves below, left first, as obvhs's
+        // collapse gathers them.
+        let mut k = 0;
+        let mut stack = vec![i];
+        while let Some(j) = stack.pop() {
+            let n = &bvh.nodes[j];
+            if n.is_leaf() {
+                for p in n.first_index..n.first_index + n.prim_count {
+                    order[k] = p;
+                    k += 1;
+                }
+            } else {
+                let l = n.first_index as usize;
+                stack.extend([l + 1, l]);
+            }
+        }
+        slot.packed = GpuNode::pack_leaf(first, sub.count);
+        return Ok(depth);
+    }
+    let l = node.first_index as usize;
+    let left = at(l);
+    slot.packed = base as u32;
+    let (pair, rest) = below.split_at_mut(2);
+    let (ls, rs) = pair.split_at_mut(1);
+    let (lb, rb) = rest.split_at_mut(left.descendants());
+    let (lo, ro) = order.split_at_mut(left.prims as usize);
+    let right_base = base + 2 + lb.len();
+    let right_first = first + left.prims;
+    let mut left_half = || {
+        write(
+            bvh,
+            at,
+            l,
+            depth + 1,
+            &mut ls[0],
+            (lb, base + 2),
+            (lo, first),
+        )
+    };
+    let mut right_half = || {
+        write(
+            bvh,
+            at,
+            l + 1,
+            depth + 1,
+            &mut rs[0],
+            (rb, right_base),
+            (ro, right_first),
+        )
+    };
+    let (a, b) = if sub.prims > PARALLEL_PRIMS {
+        rayon::join(left_half, right_half)
+    } else {
+        (left_half(), right_half())
+    };
+    Ok(a?.max(b?))
 }
 
 /// A value per node from the leaves up: `leaf(first, count)` for a leaf,
 /// `join` of its children's for an inner node; `packed(i)` is node `i`'s
 /// [`GpuNode`] word (child index or leaf range). The depth-first layout
-/// ([`depth_first`]) stores every child after its parent, so one sweep
+/// ([`lay_out`]) stores every child after its parent, so one sweep
 /// back from the last node meets the children first.
 fn bottom_up<T: Copy + Default>(
     n: usize,
@@ -247,7 +455,7 @@ pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
 }
 
 /// Each node's triangles as `(first, end)` in [`StampedBvh::triangles`]:
-/// the depth-first layout ([`depth_first`]) numbers a subtree's leaves
+/// the depth-first layout ([`lay_out`]) numbers a subtree's leaves
 /// one after another, so a subtree's triangles are one contiguous run.
 pub(crate) fn triangle_spans(nodes: &[GpuNode]) -> Vec<(u32, u32)> {
     bottom_up(
@@ -345,6 +553,158 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// obvhs's tree over `tris` (lifted by layer as [`build`] lifts
+    /// them) before its leaf collapse: PLOC and reinsertion, fast preset.
+    fn uncollapsed(tris: &[GpuTriangle], layer_lift: f32) -> Bvh2 {
+        let obv: Vec<Triangle> = tris
+            .iter()
+            .map(|t| {
+                let lift = t.layer as f32 * layer_lift;
+                let up = |v: [f32; 3]| [v[0], v[1], v[2] + lift].into();
+                Triangle {
+                    v0: up(t.v0),
+                    v1: up(t.v1),
+                    v2: up(t.v2),
+                }
+            })
+            .collect();
+        let p = BvhBuildParams::fast_build();
+        let mut bvh = PlocBuilder::with_capacity(obv.len()).build(
+            p.ploc_search_distance,
+            &obv,
+            (0..obv.len() as u32).collect(),
+            p.sort_precision,
+            p.search_depth_threshold,
+        );
+        ReinsertionOptimizer::default().run(&mut bvh, p.reinsertion_batch_ratio, None);
+        bvh
+    }
+
+    /// The plain walk [`lay_out`] must match: obvhs's own collapse, then
+    /// its tree walked depth first with a stack, left child first; the
+    /// nodes, and the triangles (input indices) in leaf order.
+    fn collapsed_by_obvhs_and_walked(mut bvh: Bvh2, max_leaf: u32) -> (Vec<GpuNode>, Vec<u32>) {
+        let p = BvhBuildParams::fast_build();
+        obvhs::bvh2::leaf_collapser::collapse(&mut bvh, max_leaf, p.collapse_traversal_cost);
+        let boxed = |i: usize| GpuNode {
+            min: bvh.nodes[i].aabb.min.into(),
+            packed: 0,
+            max: bvh.nodes[i].aabb.max.into(),
+            min_stamp: u32::MAX,
+        };
+        let (mut out, mut order) = (vec![boxed(0)], Vec::new());
+        let mut stack = vec![(0usize, 0usize)];
+        while let Some((old, new)) = stack.pop() {
+            let n = bvh.nodes[old];
+            if n.is_leaf() {
+                out[new].packed = GpuNode::pack_leaf(order.len() as u32, n.prim_count);
+                let slots = n.first_index as usize..(n.first_index + n.prim_count) as usize;
+                order.extend(&bvh.primitive_indices[slots]);
+            } else {
+                let l = n.first_index as usize;
+                out[new].packed = out.len() as u32;
+                stack.extend([(l + 1, out.len() + 1), (l, out.len())]);
+                out.extend([boxed(l), boxed(l + 1)]);
+            }
+        }
+        (out, order)
+    }
+
+    /// The layout's collapse is obvhs's, node for node: on scattered
+    /// soups and stacked layers, with leaves of up to 2, 4 and 8
+    /// triangles (the rule's ties, counts and half areas all matter),
+    /// the laid-out nodes (boxes and links) and the triangle order are
+    /// those of obvhs's collapsed tree walked depth first.
+    #[test]
+    fn the_layout_walks_obvhs_collapsed_tree() {
+        let bits = |n: &[GpuNode]| -> Vec<[u32; 7]> {
+            n.iter()
+                .map(|n| {
+                    [
+                        n.min[0].to_bits(),
+                        n.min[1].to_bits(),
+                        n.min[2].to_bits(),
+                        n.packed,
+                        n.max[0].to_bits(),
+                        n.max[1].to_bits(),
+                        n.max[2].to_bits(),
+                    ]
+                })
+                .collect()
+        };
+        for (tris, lift) in [(soup(40_000), 0.0), (stacked(12), 5.0), (soup(7), 0.0)] {
+            let bvh = uncollapsed(&tris, lift);
+            for max_leaf in [2, 4, 8] {
+                let rule = Collapse {
+                    max_prims: max_leaf,
+                    traversal_cost: BvhBuildParams::fast_build().collapse_traversal_cost,
+                };
+                let (nodes, order, _) = lay_out(&bvh, rule).unwrap();
+                let order: Vec<u32> = order
+                    .iter()
+                    .map(|&k| bvh.primitive_indices[k as usize])
+                    .collect();
+                let (want, want_order) = collapsed_by_obvhs_and_walked(bvh.clone(), max_leaf);
+                let case = format!("{} triangles, leaves ≤ {max_leaf}", tris.len());
+                assert_eq!(bits(&nodes), bits(&want), "{case}");
+                assert!(order == want_order, "{case}: triangles in another order");
+            }
+        }
+    }
+
+    /// A tree deeper than the traversal stack (a chain: every inner
+    /// node's right child is the next inner node) is refused with an
+    /// error before the walks recurse down it.
+    #[test]
+    fn a_chain_too_deep_for_the_stack_is_refused() {
+        let depth = 100_000;
+        let mut bvh = Bvh2::default();
+        // Node 2k is inner with children 2k + 1 (a leaf) and 2k + 2.
+        let node = |z0: usize, z1: usize, prims: u32, first: usize| {
+            let aabb = obvhs::aabb::Aabb {
+                min: [0.0, 0.0, z0 as f32].into(),
+                max: [1.0, 1.0, z1 as f32].into(),
+            };
+            obvhs::bvh2::node::Bvh2Node::new(aabb, prims, first as u32)
+        };
+        for k in 0..depth {
+            bvh.nodes.push(node(k, depth + 1, 0, 2 * k + 1));
+            bvh.nodes.push(node(k, k + 1, 1, k));
+        }
+        bvh.nodes.push(node(depth, depth + 1, 1, depth));
+        bvh.primitive_indices = (0..=depth as u32).collect();
+        let rule = Collapse {
+            max_prims: 4,
+            traversal_cost: 3.0,
+        };
+        let err = lay_out(&bvh, rule).unwrap_err().to_string();
+        assert!(err.contains("exceeds the traversal stack"), "{err}");
+    }
+
+    /// A subtree's measures survive their packing into one word.
+    #[test]
+    fn subtrees_pack_into_one_word() {
+        for sub in [
+            Subtree {
+                count: 0,
+                leaves: 1,
+                prims: 1,
+            },
+            Subtree {
+                count: MAX_LEAF_TRIS,
+                leaves: MAX_TRIS - 1,
+                prims: MAX_TRIS - 1,
+            },
+            Subtree {
+                count: 3,
+                leaves: 12_345,
+                prims: 67_890,
+            },
+        ] {
+            assert_eq!(Subtree::unpack(sub.pack()), sub);
+        }
+    }
 
     /// A soup of small triangles scattered over a box, stamps in a
     /// different order than space.
