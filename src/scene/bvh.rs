@@ -57,39 +57,13 @@ pub fn build(
     if tris.len() as u64 >= MAX_TRIS as u64 {
         return Err(SceneError::TooLarge(tris.len()));
     }
-    let obv: Vec<Triangle> = tris
-        .par_iter()
-        .map(|t| {
-            let lift = match t.layer {
-                u32::MAX => -layer_lift,
-                k => k as f32 * layer_lift,
-            };
-            let up = |v: [f32; 3]| [v[0], v[1], v[2] + lift].into();
-            Triangle {
-                v0: up(t.v0),
-                v1: up(t.v1),
-                v2: up(t.v2),
-            }
-        })
-        .collect();
     // obvhs's fast preset: against medium_build, dome_cut's build 2.5 →
     // 1.9 s, and whole plans 5–10 % faster on every shared model (paired
     // runs, BENCHMARKS.md); very_fast_build's tree costs the queries more
-    // than its build saves. Its steps run as obvhs's
-    // `build_bvh2_from_tris` runs them, but for the leaf collapse, which
-    // the layout does on its way ([`lay_out`]); the preset's second
-    // reinsertion pass, after the collapse, has a batch of 0 (none).
+    // than its build saves.
     let mut params = BvhBuildParams::fast_build();
     params.max_prims_per_leaf = max_leaf.min(MAX_LEAF_TRIS);
-    let mut bvh = PlocBuilder::with_capacity(obv.len()).build(
-        params.ploc_search_distance,
-        &obv,
-        (0..obv.len() as u32).collect(),
-        params.sort_precision,
-        params.search_depth_threshold,
-    );
-    drop(obv);
-    ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+    let bvh = uncollapsed(tris, layer_lift, &params);
     let collapse = Collapse {
         max_prims: params.max_prims_per_leaf,
         traversal_cost: params.collapse_traversal_cost,
@@ -112,6 +86,40 @@ pub fn build(
         return Err(too_deep(max_depth));
     }
     Ok(StampedBvh { nodes, triangles })
+}
+
+/// obvhs's tree over `tris`, layer `k` lifted by `k · layer_lift` (the
+/// platform one step below layer 0), built as obvhs's
+/// `build_bvh2_from_tris` builds it with `params` but for the leaf
+/// collapse, which the layout does on its way ([`lay_out`]): PLOC, then
+/// reinsertion (the second reinsertion pass, after the collapse, has a
+/// batch of 0 in the fast preset: none).
+fn uncollapsed(tris: &[GpuTriangle], layer_lift: f32, params: &BvhBuildParams) -> Bvh2 {
+    let obv: Vec<Triangle> = tris
+        .par_iter()
+        .map(|t| {
+            let lift = match t.layer {
+                u32::MAX => -layer_lift,
+                k => k as f32 * layer_lift,
+            };
+            let up = |v: [f32; 3]| [v[0], v[1], v[2] + lift].into();
+            Triangle {
+                v0: up(t.v0),
+                v1: up(t.v1),
+                v2: up(t.v2),
+            }
+        })
+        .collect();
+    let mut bvh = PlocBuilder::with_capacity(obv.len()).build(
+        params.ploc_search_distance,
+        &obv,
+        (0..obv.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    drop(obv);
+    ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
+    bvh
 }
 
 /// obvhs's SAH leaf collapse (`obvhs::bvh2::leaf_collapser::collapse`,
@@ -220,11 +228,18 @@ fn lay_out(bvh: &Bvh2, collapse: Collapse) -> Result<(Vec<GpuNode>, Vec<u32>, us
     let measured: Vec<AtomicU64> = (0..bvh.nodes.len()).map(|_| AtomicU64::new(0)).collect();
     let rule = (!collapse.skips(bvh)).then_some(collapse);
     let root = measure(bvh, 0, 0, rule, &measured)?;
-    let at = |i: usize| Subtree::unpack(measured[i].load(Ordering::Relaxed));
     let mut nodes = vec![GpuNode::default(); 1 + root.descendants()];
     let mut order = vec![0u32; root.prims as usize];
     let (slot, below) = nodes.split_at_mut(1);
-    let depth = write(bvh, &at, 0, 0, &mut slot[0], (below, 1), (&mut order, 0))?;
+    let depth = write(
+        bvh,
+        &measured,
+        0,
+        0,
+        &mut slot[0],
+        (below, 1),
+        (&mut order, 0),
+    )?;
     Ok((nodes, order, depth))
 }
 
@@ -281,14 +296,14 @@ fn too_deep(depth: usize) -> SceneError {
     ))
 }
 
-/// Lay out the subtree of node `i` (at `depth`, its [`Subtree`]s given
-/// by `at`): its own node into `slot`, the nodes below it into `below`
-/// (whose first slot is node `base` of the whole layout), its triangles'
-/// slots into `order` (whose first is leaf slot `first`). Returns the
-/// deepest depth below.
+/// Lay out the subtree of node `i` (at `depth`; its [`Subtree`]s as
+/// [`measure`] stored them in `measured`): its own node into `slot`, the
+/// nodes below it into `below` (whose first slot is node `base` of the
+/// whole layout), its triangles' slots into `order` (whose first is leaf
+/// slot `first`). Returns the deepest depth below.
 fn write(
     bvh: &Bvh2,
-    at: &(dyn Fn(usize) -> Subtree + Sync),
+    measured: &[AtomicU64],
     i: usize,
     depth: usize,
     slot: &mut GpuNode,
@@ -302,6 +317,7 @@ fn write(
         max: node.aabb.max.into(),
         min_stamp: u32::MAX,
     };
+    let at = |i: usize| Subtree::unpack(measured[i].load(Ordering::Relaxed));
     let sub = at(i);
     if sub.count > 0 {
         if sub.count > MAX_LEAF_TRIS {
@@ -311,11 +327,15 @@ fn write(
             )));
         }
         // The triangles of the leaves below, left first, as obvhs's
-        // collapse gathers them.
+        // collapse gathers them. Every subtree on the stack holds a leaf
+        // not met yet, and there are at most MAX_LEAF_TRIS of those.
         let mut k = 0;
-        let mut stack = vec![i];
-        while let Some(j) = stack.pop() {
-            let n = &bvh.nodes[j];
+        let mut stack = [0usize; MAX_LEAF_TRIS as usize];
+        stack[0] = i;
+        let mut sp = 1;
+        while sp > 0 {
+            sp -= 1;
+            let n = &bvh.nodes[stack[sp]];
             if n.is_leaf() {
                 for p in n.first_index..n.first_index + n.prim_count {
                     order[k] = p;
@@ -323,7 +343,9 @@ fn write(
                 }
             } else {
                 let l = n.first_index as usize;
-                stack.extend([l + 1, l]);
+                stack[sp] = l + 1;
+                stack[sp + 1] = l;
+                sp += 2;
             }
         }
         slot.packed = GpuNode::pack_leaf(first, sub.count);
@@ -341,7 +363,7 @@ fn write(
     let mut left_half = || {
         write(
             bvh,
-            at,
+            measured,
             l,
             depth + 1,
             &mut ls[0],
@@ -352,7 +374,7 @@ fn write(
     let mut right_half = || {
         write(
             bvh,
-            at,
+            measured,
             l + 1,
             depth + 1,
             &mut rs[0],
@@ -554,33 +576,6 @@ pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {
 mod tests {
     use super::*;
 
-    /// obvhs's tree over `tris` (lifted by layer as [`build`] lifts
-    /// them) before its leaf collapse: PLOC and reinsertion, fast preset.
-    fn uncollapsed(tris: &[GpuTriangle], layer_lift: f32) -> Bvh2 {
-        let obv: Vec<Triangle> = tris
-            .iter()
-            .map(|t| {
-                let lift = t.layer as f32 * layer_lift;
-                let up = |v: [f32; 3]| [v[0], v[1], v[2] + lift].into();
-                Triangle {
-                    v0: up(t.v0),
-                    v1: up(t.v1),
-                    v2: up(t.v2),
-                }
-            })
-            .collect();
-        let p = BvhBuildParams::fast_build();
-        let mut bvh = PlocBuilder::with_capacity(obv.len()).build(
-            p.ploc_search_distance,
-            &obv,
-            (0..obv.len() as u32).collect(),
-            p.sort_precision,
-            p.search_depth_threshold,
-        );
-        ReinsertionOptimizer::default().run(&mut bvh, p.reinsertion_batch_ratio, None);
-        bvh
-    }
-
     /// The plain walk [`lay_out`] must match: obvhs's own collapse, then
     /// its tree walked depth first with a stack, left child first; the
     /// nodes, and the triangles (input indices) in leaf order.
@@ -634,7 +629,7 @@ mod tests {
                 .collect()
         };
         for (tris, lift) in [(soup(40_000), 0.0), (stacked(12), 5.0), (soup(7), 0.0)] {
-            let bvh = uncollapsed(&tris, lift);
+            let bvh = uncollapsed(&tris, lift, &BvhBuildParams::fast_build());
             for max_leaf in [2, 4, 8] {
                 let rule = Collapse {
                     max_prims: max_leaf,
