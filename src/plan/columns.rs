@@ -11,7 +11,13 @@
 //! the search asks a node only when its path takes it
 //! ([`super::search`]). A node found colliding stays in its column (so
 //! node indices keep their meaning) but dies, and the next variant enters
-//! the window. A column whose first round dies out gets the eager search
+//! the window. A waypoint whose own orientation is free at the pose margin
+//! but not at what its beads need of it *grazes*: it gets variants as if
+//! it collided, and its own configuration is kept aside
+//! ([`Status::Grazing`]), made free only when the column has nothing else
+//! left, before the eager search. The beads out of a grazing pose are
+//! proven sample by sample down to `min_step`, and the pose has no room
+//! to spare; variants are taken as they come. A column whose first round dies out gets the eager search
 //! ([`State::search_harder`]): wider rounds, then every reachable
 //! orientation in shells, asked until the column holds a free
 //! configuration; a waypoint with none is skipped.
@@ -21,6 +27,7 @@
 //! poses to keep up to 16 free configurations each, of which the path
 //! takes one (a cap of 8 gave the very same plan).
 
+use super::motion::Clearness;
 use super::*;
 use std::collections::HashMap;
 
@@ -37,6 +44,13 @@ pub(super) enum Status {
     Unlikely,
     /// Within the pose margin of material: never on a path.
     Hit,
+    /// A waypoint's own configuration that is free at the pose margin but
+    /// short of what the beads to its neighbours need of it
+    /// ([`Clearness::Grazing`]): its waypoint gets variants as if it
+    /// collided, and it is kept off paths while its column has anything
+    /// else, made [`Status::Free`] when the column runs out of variants,
+    /// before the eager search.
+    Grazing,
 }
 
 /// In a run of waypoints whose own orientations collide, every this many
@@ -164,34 +178,48 @@ impl State<'_> {
                 owner.push(k);
             }
         }
-        let hits = if likely_free {
+        let found = if likely_free {
             let needs = self.end_needs(prover, items, &cand, &queries, &owner);
             prover.poses_wide(&queries, &needs)?
         } else {
-            prover.poses(&queries)?
+            let hits = prover.poses(&queries)?;
+            hits.into_iter()
+                .map(|h| {
+                    if h {
+                        Clearness::Colliding
+                    } else {
+                        Clearness::Clear
+                    }
+                })
+                .collect()
         };
+        // Per item, its free configurations with their status.
         let mut free = vec![Vec::new(); items.len()];
-        for ((&k, h), q) in owner.iter().zip(hits).zip(&queries) {
+        for ((&k, c), q) in owner.iter().zip(found).zip(&queries) {
             if self.symmetric {
                 // The mirror is the same head geometry: the same verdict.
                 for a in &cand[k][1..] {
                     prover.same_as(a, q.1, &q.0);
                 }
             }
-            if !h {
-                if self.symmetric {
-                    free[k].extend(cand[k].iter().copied());
-                } else {
-                    free[k].push(q.0);
-                }
+            let status = match c {
+                Clearness::Clear => Status::Free,
+                Clearness::Grazing => Status::Grazing,
+                Clearness::Colliding => continue,
+            };
+            if self.symmetric {
+                free[k].extend(cand[k].iter().map(|&a| (a, status)));
+            } else {
+                free[k].push((q.0, status));
             }
         }
         let cap = self.opts.max_configs;
         for (k, &(g, _)) in items.iter().enumerate() {
             // A symmetric head's pair is one pose; otherwise each solution.
             let mut pose = self.next_pose(g);
-            for a in free[k].drain(..) {
-                if self.live_count(g) < cap && self.push_config(g, a, Status::Free, pose) {
+            for (a, status) in free[k].drain(..) {
+                let room = status == Status::Grazing || self.live_count(g) < cap;
+                if room && self.push_config(g, a, status, pose) {
                     pose += (!self.symmetric) as u32;
                 }
             }
@@ -305,15 +333,7 @@ impl State<'_> {
         self.centre = (0..n)
             .map(|g| self.fixed[g].map_or(self.n1[g], |(t, c)| orientation(rot, t, c)))
             .collect();
-        let base: Vec<(usize, [(f64, f64); 2])> = (0..n)
-            .map(|g| {
-                let pair = match self.fixed[g] {
-                    Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
-                    None => ik_angles(rot, self.n1[g]),
-                };
-                (g, pair)
-            })
-            .collect();
+        let base: Vec<(usize, [(f64, f64); 2])> = (0..n).map(|g| (g, self.own_pair(g))).collect();
         self.offered = self.offer(prover, &base, true)?;
         let open: Vec<usize> = (0..n).filter(|&g| self.live_count(g) == 0).collect();
         self.cursor = vec![EXHAUSTED; n];
@@ -329,6 +349,15 @@ impl State<'_> {
             }
         }
         Ok(())
+    }
+
+    /// Waypoint `g`'s own orientation, as planned around (smoothed, or
+    /// fixed in the singular region), as its IK pair.
+    fn own_pair(&self, g: usize) -> [(f64, f64); 2] {
+        match self.fixed[g] {
+            Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
+            None => ik_angles(self.machine.rotary, self.n1[g]),
+        }
     }
 
     /// Pick the probes among the colliding waypoints `open` (each maximal
@@ -535,11 +564,22 @@ impl State<'_> {
             if self.live_count(g) > 0 || self.cursor[g] != EXHAUSTED {
                 continue;
             }
+            // Unasked variants first; then the configurations that only
+            // graze, already known free at the pose margin.
             let mut promoted = false;
-            for n in &mut self.nodes[g] {
-                if n.status == Status::Unlikely {
-                    n.status = Status::Unknown;
-                    promoted = true;
+            for from in [Status::Unlikely, Status::Grazing] {
+                let to = match from {
+                    Status::Unlikely => Status::Unknown,
+                    _ => Status::Free,
+                };
+                for n in &mut self.nodes[g] {
+                    if n.status == from {
+                        n.status = to;
+                        promoted = true;
+                    }
+                }
+                if promoted {
+                    break;
                 }
             }
             if !promoted {
@@ -579,9 +619,12 @@ impl State<'_> {
                 }
             }
         }
-        let hits = prover.poses_wide(&items, &needs)?;
+        let found = prover.poses_wide(&items, &needs)?;
         let mut died = Vec::new();
-        for ((&(g, pose), &(a, c)), hit) in which.iter().zip(&items).zip(hits) {
+        for ((&(g, pose), &(a, c)), found) in which.iter().zip(&items).zip(found) {
+            // A variant is taken as it comes, grazing or not (only a
+            // waypoint's own orientation is held to clearance first).
+            let hit = found == Clearness::Colliding;
             let status = if hit { Status::Hit } else { Status::Free };
             for (k, node) in self.nodes[g].iter_mut().enumerate() {
                 if node.pose == pose {
@@ -696,6 +739,138 @@ impl State<'_> {
 mod tests {
     use super::super::*;
     use crate::collide::cpu::CpuBackend;
+    use crate::collide::{Backend, CollideError};
+    use crate::scene::Query;
+
+    /// The angle (radians) between a head axis and the default job's
+    /// shell normal at its tip (the shells are spheres about the origin).
+    fn off_normal(tip: [f32; 3], axis: [f32; 3]) -> f32 {
+        let r = (tip[0] * tip[0] + tip[1] * tip[1] + tip[2] * tip[2]).sqrt();
+        let cos = (axis[0] * tip[0] + axis[1] * tip[1] + axis[2] * tip[2]) / r;
+        cos.clamp(-1.0, 1.0).acos()
+    }
+
+    /// A backend for the default job where a pose whose head axis lies
+    /// `lo..hi` radians off the shell's normal at its tip *grazes* (free at
+    /// the pose margin, colliding at any margin above 0.1 mm); any other
+    /// pose is clear, or, with `others_collide`, collides.
+    struct Grazing {
+        lo: f32,
+        hi: f32,
+        others_collide: bool,
+    }
+
+    impl Backend for Grazing {
+        fn name(&self) -> &'static str {
+            "grazing"
+        }
+        fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
+            Ok(q.iter()
+                .map(|q| {
+                    let a = off_normal(q.pose.tip, q.pose.cols[2]);
+                    if a >= self.lo && a < self.hi {
+                        q.margin > 0.1
+                    } else {
+                        self.others_collide
+                    }
+                })
+                .collect())
+        }
+    }
+
+    /// One waypoint of [`planned`]: how far its own configuration (as the
+    /// columns first offer it) lies off the normal, and, unless it was
+    /// skipped, whether the path takes that configuration and how far the
+    /// planned one lies off the normal.
+    type Planned = (f32, Option<(bool, f32)>);
+
+    /// The default job's columns and paths over `backend`.
+    fn planned(backend: &dyn Backend) -> Vec<Planned> {
+        let job = crate::default_job::job();
+        let scene = crate::default_job::scene();
+        let machine = Machine::default();
+        let opts = PlanOptions::default();
+        let mut st = State::new(&scene, &job.toolpath, &machine, &opts);
+        let prover = Prover::new(&machine, backend, head_reach(&scene), 0.05, opts.edge_step);
+        st.smooth();
+        st.singularities();
+        st.columns(&prover).unwrap();
+        st.graph(&prover).unwrap();
+        let angle = |a: &Axes| {
+            let pose = machine.pose(a);
+            off_normal(pose.tip, pose.cols[2])
+        };
+        let own = |g: usize| st.own_pair(g).iter().find_map(|&tc| st.feasible(g, tc));
+        let mut out: Vec<Planned> = (0..st.pos.len())
+            .map(|g| (own(g).as_ref().map_or(f32::INFINITY, angle), None))
+            .collect();
+        for (r, p) in st.sections.iter().zip(&st.paths) {
+            for (k, g) in r.clone().enumerate() {
+                let a = st.cols[g][p.nodes[k]];
+                let taken = st
+                    .own_pair(g)
+                    .iter()
+                    .any(|&tc| st.feasible(g, tc) == Some(a));
+                out[g].1 = Some((taken, angle(&a)));
+            }
+        }
+        out
+    }
+
+    /// A waypoint whose own orientation only grazes gets variants with
+    /// room, and the path takes one: with every pose within 2° of the
+    /// shell's normal grazing, no waypoint is planned in its own
+    /// configuration there (many are when those poses are clear).
+    #[test]
+    fn a_grazing_orientation_gives_way_to_a_variant_with_room() {
+        let hi = 2f32.to_radians();
+        let kept = |plan: &[Planned]| {
+            plan.iter()
+                .filter(|w| matches!(w.1, Some((true, a)) if a < hi))
+                .count()
+        };
+        let grazes = planned(&Grazing {
+            lo: 0.0,
+            hi,
+            others_collide: false,
+        });
+        assert!(grazes.iter().all(|w| w.1.is_some()), "a waypoint skipped");
+        assert_eq!(kept(&grazes), 0, "planned as they graze");
+        let clear = planned(&Grazing {
+            lo: 0.0,
+            hi: 0.0,
+            others_collide: false,
+        });
+        assert!(
+            kept(&clear) * 4 > clear.len(),
+            "{} of {}",
+            kept(&clear),
+            clear.len()
+        );
+    }
+
+    /// Where a grazing own orientation is all a waypoint has (every other
+    /// pose collides), its column falls back on it before the eager
+    /// search: each such waypoint is planned, in that configuration.
+    #[test]
+    fn a_grazing_orientation_is_taken_when_nothing_else_is_free() {
+        // The first variant, the unsmoothed normal, collides (below lo).
+        let (lo, hi) = (0.5f32.to_radians(), 3f32.to_radians());
+        let plan = planned(&Grazing {
+            lo,
+            hi,
+            others_collide: true,
+        });
+        let grazing: Vec<&Planned> = plan.iter().filter(|w| w.0 >= lo && w.0 < hi).collect();
+        assert!(
+            grazing.len() > 100,
+            "{} grazing own orientations",
+            grazing.len()
+        );
+        for w in grazing {
+            assert!(matches!(w.1, Some((true, _))), "{w:?}");
+        }
+    }
 
     /// Offering a waypoint's candidates in waves, stopping once its column
     /// is full, keeps the very configurations that offering them all at

@@ -391,6 +391,19 @@ impl Clearance {
     }
 }
 
+/// What [`Prover::poses_wide`] found of a pose.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Clearness {
+    /// Free at what the moves into and out of it need of their ends.
+    Clear,
+    /// Free at the pose margin, not at what its moves need: they can still
+    /// be proven, but sample by sample, halving towards `min_step` where
+    /// the head grazes.
+    Grazing,
+    /// Within the pose margin of material.
+    Colliding,
+}
+
 /// Where a [`Prover`] reports the progress of its batches.
 pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
@@ -488,13 +501,14 @@ impl<'a> Prover<'a> {
     /// out of it will ask of their ends ([`Prover::end_need`]: a margin of
     /// at least `margin + step / 2`, growing with distance from the tip
     /// where the moves turn), so those moves start proven at their ends;
-    /// only those that fail are asked again at the pose margin.
+    /// only those that fail are asked again at the pose margin, which
+    /// tells a pose that merely grazes from one that collides.
     /// `needs[i]` is item `i`'s `(margin, slope)`.
     pub fn poses_wide(
         &self,
         items: &[(Axes, u32)],
         needs: &[(f64, f64)],
-    ) -> Result<Vec<bool>, CollideError> {
+    ) -> Result<Vec<Clearness>, CollideError> {
         let q: Vec<Query> = items
             .par_iter()
             .zip(needs)
@@ -518,9 +532,13 @@ impl<'a> Prover<'a> {
         let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
         let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
         let hits = self.poses(&again)?;
-        let mut out = vec![false; items.len()];
+        let mut out = vec![Clearness::Clear; items.len()];
         for (&i, h) in near.iter().zip(hits) {
-            out[i] = h;
+            out[i] = if h {
+                Clearness::Colliding
+            } else {
+                Clearness::Grazing
+            };
         }
         Ok(out)
     }
@@ -1151,7 +1169,7 @@ mod tests {
             .poses_wide(&items, &needs)
             .unwrap()
             .iter()
-            .all(|&h| !h));
+            .all(|&c| c == Clearness::Clear));
         let before = prover.queries() as usize;
         assert_eq!(before, way.len());
         let beads: Vec<MoveSpec> = way
