@@ -11,16 +11,18 @@
 //! the search asks a node only when its path takes it
 //! ([`super::search`]). A node found colliding stays in its column (so
 //! node indices keep their meaning) but dies, and the next variant enters
-//! the window. A waypoint whose own orientation is free at the pose margin
-//! but not at what its beads need of it *grazes*: it gets variants as if
-//! it collided, and its own configuration is kept aside
-//! ([`Status::Grazing`]), made free only when the column has nothing else
-//! left, before the eager search. The beads out of a grazing pose are
-//! proven sample by sample down to `min_step`, and the pose has no room
-//! to spare; variants are taken as they come. A column whose first round dies out gets the eager search
+//! the window. A column whose first round dies out gets the eager search
 //! ([`State::search_harder`]): wider rounds, then every reachable
 //! orientation in shells, asked until the column holds a free
 //! configuration; a waypoint with none is skipped.
+//!
+//! Clearance first: a waypoint whose own orientation is free at the pose
+//! margin but not at what its beads need of it *grazes* (the beads out of
+//! it are proven sample by sample down to `min_step`, and the pose has no
+//! room to spare). It gets variants as if it collided, and its own
+//! configuration is kept aside ([`Status::Grazing`]), made free only when
+//! the column has nothing else left, before the eager search. Variants
+//! are taken as they come, grazing or not.
 //!
 //! Why lazily: on simple_curve with every nozzle tilted 50° about x, 83 %
 //! of the waypoints collide as given and the eager columns asked 954,050
@@ -567,11 +569,10 @@ impl State<'_> {
             // Unasked variants first; then the configurations that only
             // graze, already known free at the pose margin.
             let mut promoted = false;
-            for from in [Status::Unlikely, Status::Grazing] {
-                let to = match from {
-                    Status::Unlikely => Status::Unknown,
-                    _ => Status::Free,
-                };
+            for (from, to) in [
+                (Status::Unlikely, Status::Unknown),
+                (Status::Grazing, Status::Free),
+            ] {
                 for n in &mut self.nodes[g] {
                     if n.status == from {
                         n.status = to;
