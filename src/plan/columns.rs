@@ -16,13 +16,13 @@
 //! orientation in shells, asked until the column holds a free
 //! configuration; a waypoint with none is skipped.
 //!
-//! Clearance first: a waypoint whose own orientation is free at the pose
-//! margin but not at what its beads need of it *grazes* (the beads out of
-//! it are proven sample by sample down to `min_step`, and the pose has no
-//! room to spare). It gets variants as if it collided, and its own
-//! configuration is kept aside ([`Status::Grazing`]), made free only when
-//! the column has nothing else left, before the eager search. Variants
-//! are taken as they come, grazing or not.
+//! Clearance first: a waypoint whose own orientation falls short of what
+//! its beads need of it gets variants as if it collided, whether it
+//! collides or only grazes (free at the pose margin, its beads proven
+//! sample by sample down to `min_step`, no room to spare). Its own
+//! configuration is kept aside ([`Status::Tight`]) and asked like a
+//! variant only when the column has nothing else left, before the eager
+//! search. Variants are taken as they come, grazing or not.
 //!
 //! Why lazily: on simple_curve with every nozzle tilted 50° about x, 83 %
 //! of the waypoints collide as given and the eager columns asked 954,050
@@ -46,13 +46,14 @@ pub(super) enum Status {
     Unlikely,
     /// Within the pose margin of material: never on a path.
     Hit,
-    /// A waypoint's own configuration that is free at the pose margin but
-    /// short of what the beads to its neighbours need of it
-    /// ([`Clearness::Grazing`]): its waypoint gets variants as if it
-    /// collided, and it is kept off paths while its column has anything
-    /// else, made [`Status::Free`] when the column runs out of variants,
+    /// A waypoint's own configuration that falls short of what the beads
+    /// to its neighbours need of it ([`Prover::poses_clear`]: it grazes or
+    /// collides, and is not asked at the pose margin): its waypoint gets
+    /// variants as if it collided, and it stays off paths while its column
+    /// has anything else. When the column runs out of variants it becomes
+    /// [`Status::Unknown`] (asked, like a variant, when a path takes it),
     /// before the eager search.
-    Grazing,
+    Tight,
 }
 
 /// In a run of waypoints whose own orientations collide, every this many
@@ -180,34 +181,33 @@ impl State<'_> {
                 owner.push(k);
             }
         }
-        let found = if likely_free {
+        // Per query, the status its configurations enter with (`None`:
+        // colliding, left out). Own orientations (`likely_free`) are asked
+        // for what their beads need, clearance first.
+        let entered: Vec<Option<Status>> = if likely_free {
             let needs = self.end_needs(prover, items, &cand, &queries, &owner);
-            prover.poses_wide(&queries, &needs)?
+            prover
+                .poses_clear(&queries, &needs)?
+                .into_iter()
+                .map(|short| Some(if short { Status::Tight } else { Status::Free }))
+                .collect()
         } else {
-            let hits = prover.poses(&queries)?;
-            hits.into_iter()
-                .map(|h| {
-                    if h {
-                        Clearness::Colliding
-                    } else {
-                        Clearness::Clear
-                    }
-                })
+            prover
+                .poses(&queries)?
+                .into_iter()
+                .map(|hit| (!hit).then_some(Status::Free))
                 .collect()
         };
-        // Per item, its free configurations with their status.
         let mut free = vec![Vec::new(); items.len()];
-        for ((&k, c), q) in owner.iter().zip(found).zip(&queries) {
+        for ((&k, entered), q) in owner.iter().zip(entered).zip(&queries) {
             if self.symmetric {
                 // The mirror is the same head geometry: the same verdict.
                 for a in &cand[k][1..] {
                     prover.same_as(a, q.1, &q.0);
                 }
             }
-            let status = match c {
-                Clearness::Clear => Status::Free,
-                Clearness::Grazing => Status::Grazing,
-                Clearness::Colliding => continue,
+            let Some(status) = entered else {
+                continue;
             };
             if self.symmetric {
                 free[k].extend(cand[k].iter().map(|&a| (a, status)));
@@ -220,7 +220,7 @@ impl State<'_> {
             // A symmetric head's pair is one pose; otherwise each solution.
             let mut pose = self.next_pose(g);
             for (a, status) in free[k].drain(..) {
-                let room = status == Status::Grazing || self.live_count(g) < cap;
+                let room = status == Status::Tight || self.live_count(g) < cap;
                 if room && self.push_config(g, a, status, pose) {
                     pose += (!self.symmetric) as u32;
                 }
@@ -566,12 +566,12 @@ impl State<'_> {
             if self.live_count(g) > 0 || self.cursor[g] != EXHAUSTED {
                 continue;
             }
-            // Unasked variants first; then the configurations that only
-            // graze, already known free at the pose margin.
+            // Unasked variants first; then the waypoint's own
+            // configuration that fell short of its beads' need.
             let mut promoted = false;
             for (from, to) in [
                 (Status::Unlikely, Status::Unknown),
-                (Status::Grazing, Status::Free),
+                (Status::Tight, Status::Unknown),
             ] {
                 for n in &mut self.nodes[g] {
                     if n.status == from {

@@ -498,37 +498,17 @@ impl<'a> Prover<'a> {
 
     /// [`Prover::poses`] for poses that are usually free (a waypoint's own
     /// orientation), each first asked once for what the moves into and
-    /// out of it will ask of their ends ([`Prover::end_need`]: a margin of
-    /// at least `margin + step / 2`, growing with distance from the tip
-    /// where the moves turn), so those moves start proven at their ends;
-    /// only those that fail are asked again at the pose margin, which
-    /// tells a pose that merely grazes from one that collides.
-    /// `needs[i]` is item `i`'s `(margin, slope)`.
+    /// out of it will ask of their ends ([`Prover::poses_clear`]), so
+    /// those moves start proven at their ends; only those that fail are
+    /// asked again at the pose margin, which tells a pose that merely
+    /// grazes from one that collides. `needs[i]` is item `i`'s `(margin,
+    /// slope)`.
     pub fn poses_wide(
         &self,
         items: &[(Axes, u32)],
         needs: &[(f64, f64)],
     ) -> Result<Vec<Clearness>, CollideError> {
-        let q: Vec<Query> = items
-            .par_iter()
-            .zip(needs)
-            .map(|(&(a, cutoff), &(margin, slope))| Query {
-                slope: slope as f32,
-                ..self.query(&a, cutoff, margin)
-            })
-            .collect();
-        let wide = self.evaluate(&q)?;
-        {
-            let mut known = self.known.lock().expect("prover cache");
-            for ((&(a, cutoff), &(margin, slope)), &h) in items.iter().zip(needs).zip(&wide) {
-                if !h {
-                    let e = known
-                        .entry(pose_key(&a, cutoff))
-                        .or_insert(Clearance::new(margin, slope));
-                    *e = e.merged(Clearance::new(margin, slope));
-                }
-            }
-        }
+        let wide = self.poses_clear(items, needs)?;
         let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
         let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
         let hits = self.poses(&again)?;
@@ -541,6 +521,38 @@ impl<'a> Prover<'a> {
             };
         }
         Ok(out)
+    }
+
+    /// Do the poses `(axes, cutoff)` fall short of what the moves into
+    /// and out of them will ask of their ends ([`Prover::end_need`]: a
+    /// margin of at least `margin + step / 2`, growing with distance from
+    /// the tip where the moves turn)? `true` where a pose grazes or
+    /// collides; what the others keep is remembered as a sloped
+    /// clearance. `needs[i]` is item `i`'s `(margin, slope)`.
+    pub fn poses_clear(
+        &self,
+        items: &[(Axes, u32)],
+        needs: &[(f64, f64)],
+    ) -> Result<Vec<bool>, CollideError> {
+        let q: Vec<Query> = items
+            .par_iter()
+            .zip(needs)
+            .map(|(&(a, cutoff), &(margin, slope))| Query {
+                slope: slope as f32,
+                ..self.query(&a, cutoff, margin)
+            })
+            .collect();
+        let wide = self.evaluate(&q)?;
+        let mut known = self.known.lock().expect("prover cache");
+        for ((&(a, cutoff), &(margin, slope)), &h) in items.iter().zip(needs).zip(&wide) {
+            if !h {
+                let e = known
+                    .entry(pose_key(&a, cutoff))
+                    .or_insert(Clearance::new(margin, slope));
+                *e = e.merged(Clearance::new(margin, slope));
+            }
+        }
+        Ok(wide)
     }
 
     /// The `(margin, slope)` a pose `a` must keep so that the moves
