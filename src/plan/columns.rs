@@ -29,7 +29,6 @@
 //! poses to keep up to 16 free configurations each, of which the path
 //! takes one (a cap of 8 gave the very same plan).
 
-use super::motion::Clearness;
 use super::*;
 use std::collections::HashMap;
 
@@ -569,13 +568,10 @@ impl State<'_> {
             // Unasked variants first; then the waypoint's own
             // configuration that fell short of its beads' need.
             let mut promoted = false;
-            for (from, to) in [
-                (Status::Unlikely, Status::Unknown),
-                (Status::Tight, Status::Unknown),
-            ] {
+            for from in [Status::Unlikely, Status::Tight] {
                 for n in &mut self.nodes[g] {
                     if n.status == from {
-                        n.status = to;
+                        n.status = Status::Unknown;
                         promoted = true;
                     }
                 }
@@ -620,12 +616,11 @@ impl State<'_> {
                 }
             }
         }
-        let found = prover.poses_wide(&items, &needs)?;
+        // A variant is taken as it comes, grazing or not (only a
+        // waypoint's own orientation is held to clearance first).
+        let hits = prover.poses_wide(&items, &needs)?;
         let mut died = Vec::new();
-        for ((&(g, pose), &(a, c)), found) in which.iter().zip(&items).zip(found) {
-            // A variant is taken as it comes, grazing or not (only a
-            // waypoint's own orientation is held to clearance first).
-            let hit = found == Clearness::Colliding;
+        for ((&(g, pose), &(a, c)), hit) in which.iter().zip(&items).zip(hits) {
             let status = if hit { Status::Hit } else { Status::Free };
             for (k, node) in self.nodes[g].iter_mut().enumerate() {
                 if node.pose == pose {

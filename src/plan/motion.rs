@@ -391,19 +391,6 @@ impl Clearance {
     }
 }
 
-/// What [`Prover::poses_wide`] found of a pose.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Clearness {
-    /// Free at what the moves into and out of it need of their ends.
-    Clear,
-    /// Free at the pose margin, not at what its moves need: they can still
-    /// be proven, but sample by sample, halving towards `min_step` where
-    /// the head grazes.
-    Grazing,
-    /// Within the pose margin of material.
-    Colliding,
-}
-
 /// Where a [`Prover`] reports the progress of its batches.
 pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
@@ -500,25 +487,20 @@ impl<'a> Prover<'a> {
     /// orientation), each first asked once for what the moves into and
     /// out of it will ask of their ends ([`Prover::poses_clear`]), so
     /// those moves start proven at their ends; only those that fail are
-    /// asked again at the pose margin, which tells a pose that merely
-    /// grazes from one that collides. `needs[i]` is item `i`'s `(margin,
-    /// slope)`.
+    /// asked again at the pose margin (a pose that merely grazes is free).
+    /// `needs[i]` is item `i`'s `(margin, slope)`.
     pub fn poses_wide(
         &self,
         items: &[(Axes, u32)],
         needs: &[(f64, f64)],
-    ) -> Result<Vec<Clearness>, CollideError> {
+    ) -> Result<Vec<bool>, CollideError> {
         let wide = self.poses_clear(items, needs)?;
         let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
         let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
         let hits = self.poses(&again)?;
-        let mut out = vec![Clearness::Clear; items.len()];
+        let mut out = vec![false; items.len()];
         for (&i, h) in near.iter().zip(hits) {
-            out[i] = if h {
-                Clearness::Colliding
-            } else {
-                Clearness::Grazing
-            };
+            out[i] = h;
         }
         Ok(out)
     }
@@ -1181,7 +1163,7 @@ mod tests {
             .poses_wide(&items, &needs)
             .unwrap()
             .iter()
-            .all(|&c| c == Clearness::Clear));
+            .all(|&h| !h));
         let before = prover.queries() as usize;
         assert_eq!(before, way.len());
         let beads: Vec<MoveSpec> = way
