@@ -53,7 +53,7 @@ use crate::geometry::Pose;
 use crate::kinematics::{Axes, Interpolation, Machine};
 use crate::scene::Query;
 use rayon::prelude::*;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 
@@ -427,8 +427,8 @@ impl<'a> Prover<'a> {
             margin,
             step: step.max(1e-3),
             min_step: 0.005,
-            cache: Mutex::new(HashMap::new()),
-            known: Mutex::new(HashMap::new()),
+            cache: Mutex::new(HashMap::default()),
+            known: Mutex::new(HashMap::default()),
             queries: AtomicU64::new(0),
             ticker: None,
         }
@@ -580,7 +580,8 @@ impl<'a> Prover<'a> {
         let keys: Vec<PoseKey> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
         let mut out: Vec<Option<bool>> = {
             let known = self.known.lock().expect("prover cache");
-            keys.iter()
+            let known: &HashMap<PoseKey, Clearance> = &known;
+            keys.par_iter()
                 .map(|k| {
                     known
                         .get(k)
@@ -643,18 +644,17 @@ impl<'a> Prover<'a> {
     /// Does each move come within the margin of existing material at any
     /// point (or can it not be proven free)? One verdict each.
     pub fn moves(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
-        let mut out = vec![None; moves.len()];
-        {
+        let keys: Vec<Key> = moves.par_iter().map(key).collect();
+        let mut out: Vec<Option<bool>> = {
             let cache = self.cache.lock().expect("prover cache");
-            for (o, mv) in out.iter_mut().zip(moves) {
-                *o = cache.get(&key(mv)).copied();
-            }
-        }
+            let cache: &HashMap<Key, bool> = &cache;
+            keys.par_iter().map(|k| cache.get(k).copied()).collect()
+        };
         let todo: Vec<usize> = (0..moves.len()).filter(|&i| out[i].is_none()).collect();
         let found = self.prove(&todo.iter().map(|&i| moves[i]).collect::<Vec<_>>())?;
         let mut cache = self.cache.lock().expect("prover cache");
         for (&i, v) in todo.iter().zip(found) {
-            cache.insert(key(&moves[i]), v);
+            cache.insert(keys[i], v);
             out[i] = Some(v);
         }
         Ok(out.into_iter().map(|v| v.unwrap_or(true)).collect())
@@ -677,6 +677,7 @@ impl<'a> Prover<'a> {
         // `(M − m) / bound`.
         let mut samples: Vec<Vec<Sample>> = {
             let known = self.known.lock().expect("prover cache");
+            let known: &HashMap<PoseKey, Clearance> = &known;
             let at = |a: &Axes, cutoff: u32, sw: &Sweep, d: f64| {
                 [cutoff, cutoff + 1]
                     .iter()
@@ -685,7 +686,7 @@ impl<'a> Prover<'a> {
                     .fold(f64::NEG_INFINITY, f64::max)
             };
             sweeps
-                .iter()
+                .par_iter()
                 .zip(&bounds)
                 .zip(moves)
                 .map(|((sw, &d), mv)| {
@@ -814,7 +815,7 @@ impl Ask {
 /// query; per query, the ask whose pose it takes (the first of its group)
 /// and what it asks (the group's need).
 fn share_ends(asks: &[Ask]) -> (Vec<usize>, Vec<usize>, Vec<Ask>) {
-    let mut first: HashMap<PoseKey, usize> = HashMap::new();
+    let mut first: HashMap<PoseKey, usize> = HashMap::default();
     let mut slot = Vec::with_capacity(asks.len());
     let mut shared: Vec<usize> = Vec::new();
     let mut grown: Vec<Ask> = Vec::new();
