@@ -374,9 +374,37 @@ pub fn run(a: PlanArgs) -> Result<()> {
             .map_err(|e| UsageError(format!("{}: cannot write ({e})", dst.display())))?;
     }
     show.finish();
-    if a.quiet {
-        return Ok(());
+    if !a.quiet {
+        print_summary(
+            &job,
+            &p,
+            &flipped,
+            (seconds, t0),
+            backend.name(),
+            &out,
+            &files,
+        );
     }
+    // The command ends the process: the OS takes back the scene and the
+    // plan at once, where freeing them piece by piece took 0.13 s of
+    // dome_cut's run.
+    drop(backend);
+    std::mem::forget(p);
+    std::mem::forget(job);
+    Ok(())
+}
+
+/// What `plan` prints when it is done: warnings, flipped layers, the
+/// input and plan side by side, and where it wrote.
+fn print_summary(
+    job: &maamplan::job::Job,
+    p: &maamplan::plan::Plan,
+    flipped: &[String],
+    (seconds, t0): (f64, Instant),
+    backend: &str,
+    out: &Path,
+    files: &[String],
+) {
     for w in &p.warnings {
         eprintln!("warning: {w}");
     }
@@ -396,9 +424,8 @@ pub fn run(a: PlanArgs) -> Result<()> {
         job.source,
         seconds,
         t0.elapsed().as_secs_f64(),
-        backend.name(),
+        backend,
         out.display(),
         files.join(", ")
     );
-    Ok(())
 }

@@ -3,7 +3,7 @@
 //! mesh is closed, and splitting long triangles.
 
 use super::{cross, length, sub, V3};
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 /// An indexed triangle mesh (mm).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -27,7 +27,7 @@ impl Mesh {
 
     /// Merge bit-identical vertices so shared edges share indices.
     pub fn welded(&self) -> Mesh {
-        let mut map: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut map: HashMap<[u32; 3], u32> = HashMap::default();
         let mut vertices = Vec::new();
         let remap: Vec<u32> = self
             .vertices
@@ -86,7 +86,7 @@ impl Mesh {
     /// Number of directed edges without exactly one opposite partner: 0 for a
     /// closed, consistently oriented (watertight) mesh.
     pub fn open_edges(&self) -> usize {
-        let mut count: HashMap<(u32, u32), i32> = HashMap::new();
+        let mut count: HashMap<(u32, u32), i32> = HashMap::default();
         for t in &self.triangles {
             for k in 0..3 {
                 *count.entry((t[k], t[(k + 1) % 3])).or_default() += 1;
@@ -139,7 +139,7 @@ impl Mesh {
     /// surface is unchanged; smaller triangles just cull better.
     pub fn subdivided(&self, max_edge: f32) -> Mesh {
         let mut vertices = self.vertices.clone();
-        let mut mids: HashMap<(u32, u32), u32> = HashMap::new();
+        let mut mids: HashMap<(u32, u32), u32> = HashMap::default();
         let mut out = Vec::with_capacity(self.triangles.len());
         let mut stack: Vec<[u32; 3]> = self.triangles.iter().rev().copied().collect();
         while let Some(t) = stack.pop() {

@@ -30,7 +30,7 @@
 //! takes one (a cap of 8 gave the very same plan).
 
 use super::*;
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 /// What is known of a node's pose.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -598,7 +598,7 @@ impl State<'_> {
         asks: &[(usize, usize, (f64, f64))],
     ) -> Result<Vec<usize>, PlanError> {
         // One query per (waypoint, pose), first node of the pose asks.
-        let mut group: HashMap<(usize, u32), usize> = HashMap::new();
+        let mut group: HashMap<(usize, u32), usize> = HashMap::default();
         let mut items: Vec<(Axes, u32)> = Vec::new();
         let mut needs: Vec<(f64, f64)> = Vec::new();
         let mut which: Vec<(usize, u32)> = Vec::new();

@@ -12,7 +12,7 @@
 
 use super::cost::CostModel;
 use crate::kinematics::Axes;
-use std::collections::HashSet;
+use rustc_hash::FxHashSet as HashSet;
 use std::ops::Range;
 
 /// A chosen path: node index per column and whether column `i` is entered
@@ -341,7 +341,7 @@ mod tests {
                 cost: &cm,
                 live: &live,
             };
-            let mut blocked = EdgeSet::new();
+            let mut blocked = EdgeSet::default();
             for i in 1..n {
                 for k in 0..cols[i - 1].len() {
                     for j in 0..cols[i].len() {
@@ -353,7 +353,7 @@ mod tests {
             }
             let edges = Blocked {
                 blocked: blocked.clone(),
-                proven: EdgeSet::new(),
+                proven: EdgeSet::default(),
             };
             let p = shortest_path(g, &edges);
             let b = brute(g, &blocked);

@@ -16,7 +16,8 @@
 
 use super::columns::Status;
 use super::*;
-use std::collections::{BTreeMap, BTreeSet, HashMap};
+use rustc_hash::FxHashMap as HashMap;
+use std::collections::{BTreeMap, BTreeSet};
 
 /// A column where a node a path takes collided (or whose variants all did)
 /// gets all its unchecked nodes asked at once after this many: columns

@@ -217,20 +217,33 @@ impl Scene {
         );
         let (head, head_cache) = head?;
 
-        let mut soup = Vec::new();
-        for g in &groups {
-            for (i, &stamp) in g.stamps.iter().enumerate() {
-                let [v0, v1, v2] = g.mesh.corners(i);
-                soup.push(GpuTriangle {
-                    v0,
-                    stamp,
-                    v1,
-                    layer: g.layer.map_or(u32::MAX, |l| l as u32),
-                    v2,
-                    source: soup.len() as u32,
-                });
-            }
-        }
+        // Every group's triangles, numbered in group order (their
+        // `source`), gathered side by side.
+        let firsts: Vec<usize> = groups
+            .iter()
+            .scan(0, |n, g| {
+                let first = *n;
+                *n += g.stamps.len();
+                Some(first)
+            })
+            .collect();
+        let soup: Vec<GpuTriangle> = groups
+            .par_iter()
+            .zip(firsts)
+            .flat_map_iter(|(g, first)| {
+                g.stamps.iter().enumerate().map(move |(i, &stamp)| {
+                    let [v0, v1, v2] = g.mesh.corners(i);
+                    GpuTriangle {
+                        v0,
+                        stamp,
+                        v1,
+                        layer: g.layer.map_or(u32::MAX, |l| l as u32),
+                        v2,
+                        source: (first + i) as u32,
+                    }
+                })
+            })
+            .collect();
         let part = bvh::build(&soup, 4, head_extent * bvh::LAYER_LIFT_PER_HEAD)?;
         drop(soup);
         let mut part_nodes = bvh::sphere_nodes(&part);
