@@ -77,6 +77,16 @@ pub struct Job {
 impl Job {
     /// Load the inputs of `spec`, apply the conventions and build the scene.
     pub fn load(spec: &JobSpec) -> Result<Job, JobError> {
+        Ok(Job::load_beside(spec, |_| ())?.0)
+    }
+
+    /// [`Job::load`], running `beside` on the toolpath (conventions
+    /// applied) while the scene is built: work that needs only the
+    /// toolpath fills the cores the scene's build leaves idle.
+    pub fn load_beside<T: Send>(
+        spec: &JobSpec,
+        beside: impl FnOnce(&Toolpath) -> T + Send,
+    ) -> Result<(Job, T), JobError> {
         let t0 = Instant::now();
         if !(spec.clearance >= 0.0 && spec.clearance.is_finite()) {
             return Err(JobError::Setting(
@@ -140,21 +150,25 @@ impl Job {
             max_edge: None,
             head_cache: true,
         };
-        let scene =
-            Scene::build(&toolpath, &head, &platform, &cfg).map_err(|source| JobError::Scene {
-                head: spec
-                    .head
-                    .as_ref()
-                    .map_or("default".into(), |p| p.display().to_string()),
-                source,
-            })?;
-        Ok(Job {
+        let (scene, made) = rayon::join(
+            || Scene::build(&toolpath, &head, &platform, &cfg),
+            || beside(&toolpath),
+        );
+        let scene = scene.map_err(|source| JobError::Scene {
+            head: spec
+                .head
+                .as_ref()
+                .map_or("default".into(), |p| p.display().to_string()),
+            source,
+        })?;
+        let job = Job {
             source,
             toolpath,
             scene,
             flipped_layers,
             seconds: t0.elapsed().as_secs_f64(),
-        })
+        };
+        Ok((job, made))
     }
 
     /// Names of the flipped layers.

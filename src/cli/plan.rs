@@ -11,7 +11,7 @@ use maamplan::io::plan_csv::write_plan_csv;
 use maamplan::kinematics::{load_machine, Machine};
 use maamplan::plan::candidates::Sampling;
 use maamplan::plan::smooth::Smoothing;
-use maamplan::plan::{plan, PlanOptions, Skip};
+use maamplan::plan::{plan_prepared, PlanOptions, Prepared, Skip};
 use serde_json::json;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -174,13 +174,6 @@ pub fn run(a: PlanArgs) -> Result<()> {
         Some(p) => load_machine(p)?,
         None => Machine::default(),
     };
-    let job = a.scene.load()?;
-    let scene = &job.scene;
-    let backend = a.backend.build(scene, !a.quiet)?;
-    let load_s = t0.elapsed().as_secs_f64();
-    show.stage_line("load", load_s, None);
-    show.note(&scene.head_cache.to_string());
-
     let opts = PlanOptions {
         smoothing: match a.smoothing {
             SmoothingKind::Laplacian => Smoothing::Laplacian { passes: a.passes },
@@ -208,9 +201,20 @@ pub fn run(a: PlanArgs) -> Result<()> {
         margin: a.margin,
         ..PlanOptions::default()
     };
-    let p = plan(
+    // Stages 1 and 2 need only the toolpath: they run while the scene is
+    // built.
+    let (job, prepared) = a
+        .scene
+        .load_beside(|toolpath| Prepared::new(toolpath, &machine, &opts))?;
+    let scene = &job.scene;
+    let backend = a.backend.build(scene, !a.quiet)?;
+    let load_s = t0.elapsed().as_secs_f64();
+    show.stage_line("load", load_s, None);
+    show.note(&scene.head_cache.to_string());
+
+    let p = plan_prepared(
+        prepared,
         scene,
-        &job.toolpath,
         &machine,
         backend.as_ref(),
         &opts,

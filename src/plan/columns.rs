@@ -786,10 +786,9 @@ mod tests {
         let scene = crate::default_job::scene();
         let machine = Machine::default();
         let opts = PlanOptions::default();
-        let mut st = State::new(&scene, &job.toolpath, &machine, &opts);
+        let prepared = Prepared::new(&job.toolpath, &machine, &opts);
+        let mut st = State::new(&scene, prepared, &machine, &opts);
         let prover = Prover::new(&machine, backend, head_reach(&scene), 0.05, opts.edge_step);
-        st.smooth();
-        st.singularities();
         st.columns(&prover).unwrap();
         st.graph(&prover).unwrap();
         let angle = |a: &Axes| {
@@ -894,7 +893,8 @@ mod tests {
             .flat_map(|g| grid.iter().map(move |d| (g, *d)))
             .collect();
         let columns = |waves: bool| {
-            let mut st = State::new(&scene, &job.toolpath, &machine, &opts);
+            let prepared = Prepared::new(&job.toolpath, &machine, &opts);
+            let mut st = State::new(&scene, prepared, &machine, &opts);
             let prover = Prover::new(&machine, &backend, head_reach(&scene), 0.05, 0.3);
             let offered = if waves {
                 st.offer_until_full(&prover, &items).unwrap()

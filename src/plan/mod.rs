@@ -359,9 +359,29 @@ pub fn plan(
     opts: &PlanOptions,
     progress: &mut (dyn FnMut(Progress) + Send),
 ) -> Result<Plan, PlanError> {
-    let n_wp = toolpath.waypoint_count();
+    let prepared = Prepared::new(toolpath, machine, opts);
+    plan_prepared(prepared, scene, machine, backend, opts, progress)
+}
+
+/// [`plan`] from what [`Prepared::new`] made of the toolpath with the
+/// same `machine` and `opts` (its stages are reported first, with the
+/// seconds they took then).
+pub fn plan_prepared(
+    mut prepared: Prepared,
+    scene: &Scene,
+    machine: &Machine,
+    backend: &dyn Backend,
+    opts: &PlanOptions,
+    progress: &mut (dyn FnMut(Progress) + Send),
+) -> Result<Plan, PlanError> {
+    let n_wp = prepared.pos.len();
     if scene.waypoint_queries.len() != n_wp {
         return Err(PlanError::Mismatch(scene.waypoint_queries.len(), n_wp));
+    }
+    if !prepared.made_with(machine, opts) {
+        return Err(PlanError::Internal(
+            "the toolpath was prepared with other settings".into(),
+        ));
     }
     let margin = opts.margin.unwrap_or(machine.margin);
     let progress = std::sync::Mutex::new(progress);
@@ -384,21 +404,20 @@ pub fn plan(
         asked = q;
         clock = Instant::now();
     };
-    let mut st = State::new(scene, toolpath, machine, opts);
+    let prepared_stages = std::mem::take(&mut prepared.stages);
+    let mut st = State::new(scene, prepared, machine, opts);
     // The input's own metrics need nothing the planner finds: they are
     // measured beside it, with a prover of their own (its answers and
     // counts do not depend on how the two interleave), and fill the
     // cores the planner's serial steps leave idle.
     let input = InputJob::new(&st);
     let input_prover = Prover::new(machine, backend, head_reach(scene), margin, opts.edge_step);
+    for stage in prepared_stages {
+        tell(Progress::Done(&stage));
+        stages.push(stage);
+    }
     let (planned, measured) = rayon::join(
         || -> Result<_, PlanError> {
-            tell(Progress::Stage("smoothing"));
-            st.smooth();
-            lap("smooth", &mut stages);
-            tell(Progress::Stage("singularities"));
-            st.singularities();
-            lap("singularities", &mut stages);
             tell(Progress::Stage("collisions"));
             st.columns(&prover)?;
             lap("columns", &mut stages);
@@ -457,14 +476,33 @@ pub fn plan(
     })
 }
 
-impl<'a> State<'a> {
-    /// Flatten the toolpath and split it into continuous runs.
-    fn new(
-        scene: &'a Scene,
-        toolpath: &Toolpath,
-        machine: &'a Machine,
-        opts: &'a PlanOptions,
-    ) -> Self {
+/// What the planner makes of the toolpath alone, before any collision
+/// question: the waypoints flattened into continuous runs, the index of
+/// which layer a point reads as, the smoothed orientations (stage 1) and
+/// the singular runs' angles (stage 2). It needs no scene, so a caller
+/// can make it while the scene is built ([`crate::job::Job::load_beside`]);
+/// [`plan`] makes it first.
+pub struct Prepared {
+    pos: Vec<[f64; 3]>,
+    n0: Vec<[f64; 3]>,
+    n1: Vec<[f64; 3]>,
+    layer_of: Vec<usize>,
+    reader: NearestLayer,
+    support: Vec<bool>,
+    layer_start: Vec<usize>,
+    runs: Vec<Range<usize>>,
+    fixed: Vec<Option<(f64, f64)>>,
+    was_singular: Vec<bool>,
+    /// What it was made with ([`Prepared::made_with`]).
+    made: (Smoothing, f64, f64, crate::kinematics::Rotary),
+    /// Its stages, as they ran.
+    stages: Vec<Stage>,
+}
+
+impl Prepared {
+    /// Flatten `toolpath` into continuous runs and run stages 1 and 2 for
+    /// `machine` with `opts`.
+    pub fn new(toolpath: &Toolpath, machine: &Machine, opts: &PlanOptions) -> Self {
         let n_wp = toolpath.waypoint_count();
         let mut pos = Vec::with_capacity(n_wp);
         let mut n0 = Vec::with_capacity(n_wp);
@@ -481,11 +519,7 @@ impl<'a> State<'a> {
             .iter()
             .map(|n| singular::is_singular(*n, opts.alpha))
             .collect();
-        State {
-            scene,
-            machine,
-            opts,
-            symmetric: half_turn_symmetric(scene),
+        let mut p = Prepared {
             n1: n0.clone(),
             reader: NearestLayer::new(&pos, &layer_of),
             pos,
@@ -496,6 +530,67 @@ impl<'a> State<'a> {
             runs,
             fixed: vec![None; n_wp],
             was_singular,
+            made: (opts.smoothing, opts.alpha, opts.jump, machine.rotary),
+            stages: Vec::new(),
+        };
+        let clock = Instant::now();
+        p.smooth(opts.smoothing);
+        p.stages.push(Stage {
+            name: "smooth".into(),
+            seconds: clock.elapsed().as_secs_f64(),
+            queries: 0,
+        });
+        let clock = Instant::now();
+        p.singularities(machine.rotary, opts.alpha);
+        p.stages.push(Stage {
+            name: "singularities".into(),
+            seconds: clock.elapsed().as_secs_f64(),
+            queries: 0,
+        });
+        p
+    }
+
+    /// Was it made for `machine` with `opts` (what stages 1 and 2 read)?
+    fn made_with(&self, machine: &Machine, opts: &PlanOptions) -> bool {
+        self.made == (opts.smoothing, opts.alpha, opts.jump, machine.rotary)
+    }
+
+    /// Stage 1: smoothing, run by run.
+    fn smooth(&mut self, how: Smoothing) {
+        for r in &self.runs {
+            let s = smooth::smooth(&self.n0[r.clone()], how);
+            self.n1[r.clone()].copy_from_slice(&s);
+        }
+    }
+
+    /// Stage 2: singular runs get angles from their anchors.
+    fn singularities(&mut self, rot: crate::kinematics::Rotary, alpha: f64) {
+        for r in &self.runs {
+            let (f, _) = singular::process(rot, &self.n1[r.clone()], alpha);
+            self.fixed[r.clone()].clone_from_slice(&f);
+        }
+    }
+}
+
+impl<'a> State<'a> {
+    /// The planner's state over `scene`, from the prepared toolpath.
+    fn new(scene: &'a Scene, p: Prepared, machine: &'a Machine, opts: &'a PlanOptions) -> Self {
+        let n_wp = p.pos.len();
+        State {
+            scene,
+            machine,
+            opts,
+            symmetric: half_turn_symmetric(scene),
+            pos: p.pos,
+            n0: p.n0,
+            n1: p.n1,
+            layer_of: p.layer_of,
+            reader: p.reader,
+            support: p.support,
+            layer_start: p.layer_start,
+            runs: p.runs,
+            fixed: p.fixed,
+            was_singular: p.was_singular,
             cols: vec![Vec::new(); n_wp],
             nodes: vec![Vec::new(); n_wp],
             cursor: vec![columns::EXHAUSTED; n_wp],
@@ -510,23 +605,6 @@ impl<'a> State<'a> {
             heights: Vec::new(),
             e: vec![0.0; n_wp],
             warnings: Vec::new(),
-        }
-    }
-
-    /// Stage 1: smoothing, run by run.
-    fn smooth(&mut self) {
-        for r in &self.runs {
-            let s = smooth::smooth(&self.n0[r.clone()], self.opts.smoothing);
-            self.n1[r.clone()].copy_from_slice(&s);
-        }
-    }
-
-    /// Stage 2: singular runs get angles from their anchors.
-    fn singularities(&mut self) {
-        let rot = self.machine.rotary;
-        for r in &self.runs {
-            let (f, _) = singular::process(rot, &self.n1[r.clone()], self.opts.alpha);
-            self.fixed[r.clone()].clone_from_slice(&f);
         }
     }
 
@@ -1067,6 +1145,33 @@ pub fn runs(toolpath: &Toolpath, jump: f64) -> Vec<Range<usize>> {
 mod tests {
     use super::program::{Move, MoveKind};
     use super::*;
+
+    /// A toolpath prepared on its own (as `plan` prepares it beside the
+    /// scene's build) plans as [`plan`] plans it; one prepared with other
+    /// settings is refused instead of planned with the wrong orientations.
+    #[test]
+    fn a_prepared_toolpath_plans_as_plan_does() {
+        let job = crate::default_job::job();
+        let scene = crate::default_job::scene();
+        let m = Machine::default();
+        let backend = crate::collide::cpu::CpuBackend::new(&scene);
+        let opts = PlanOptions::default();
+        let whole = plan(&scene, &job.toolpath, &m, &backend, &opts, &mut |_| {}).unwrap();
+        let prepared = Prepared::new(&job.toolpath, &m, &opts);
+        let apart = plan_prepared(prepared, &scene, &m, &backend, &opts, &mut |_| {}).unwrap();
+        assert!(whole.program == apart.program);
+        let names = |p: &Plan| -> Vec<String> { p.stages.iter().map(|s| s.name.clone()).collect() };
+        assert_eq!(names(&whole), names(&apart));
+        assert_eq!(names(&apart)[..2], ["smooth", "singularities"]);
+
+        let other = PlanOptions {
+            smoothing: Smoothing::None,
+            ..opts
+        };
+        let prepared = Prepared::new(&job.toolpath, &m, &other);
+        let refused = plan_prepared(prepared, &scene, &m, &backend, &opts, &mut |_| {});
+        assert!(matches!(refused, Err(PlanError::Internal(_))));
+    }
 
     /// The pruned search finds what sampling every extruding move finds,
     /// and ignores moves that do not extrude however far they bow.
