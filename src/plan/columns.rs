@@ -115,13 +115,24 @@ impl State<'_> {
     /// a C range: one node per whole turn of C inside it), unless the
     /// column holds it already. Returns whether it was added.
     fn push_config(&mut self, g: usize, a: Axes, status: Status, pose: u32) -> bool {
-        let all = match self.machine.c.range {
-            Some(range) => windings(a.c, range)
-                .into_iter()
-                .map(|c| Axes { c, ..a })
-                .collect(),
-            None => vec![a],
+        let Some(range) = self.machine.c.range else {
+            // (No C range, one node: without the list of windings, which
+            // was a million small allocations on the tilted row.)
+            if self.cols[g].contains(&a) {
+                return false;
+            }
+            self.cols[g].push(a);
+            self.nodes[g].push(Node {
+                status,
+                pose,
+                counted: true,
+            });
+            return true;
         };
+        let all: Vec<Axes> = windings(a.c, range)
+            .into_iter()
+            .map(|c| Axes { c, ..a })
+            .collect();
         if all.first().is_none_or(|first| self.cols[g].contains(first)) {
             return false;
         }
@@ -546,14 +557,20 @@ impl State<'_> {
             self.offered[g] |= !configs.is_empty();
             let mut item = None;
             let mut pose = 0;
+            // (Counted as they enter: a count per config had made this
+            // loop quadratic in the column's length.)
+            let mut live = self.live_count(g);
+            self.cols[g].reserve(configs.len());
+            self.nodes[g].reserve(configs.len());
             for (at, a, status) in configs {
                 if item != Some(at) {
                     item = Some(at);
                     pose = self.next_pose(g);
                 }
-                let room = status == Status::Unlikely || self.live_count(g) < cap;
+                let room = status == Status::Unlikely || live < cap;
                 if room && self.push_config(g, a, status, pose) {
                     pose += (!self.symmetric) as u32;
+                    live += (status == Status::Unknown) as usize;
                 }
             }
             // Columns are long-lived (until the program): no spare room.
