@@ -64,7 +64,13 @@ pub struct Axes {
 
 /// Wrap an angle into (−π, π].
 pub fn wrap(a: f64) -> f64 {
-    let mut a = a % (2.0 * PI);
+    // `%` is a software fmod (1 % of the tilted row's CPU); it returns an
+    // angle within a turn unchanged, and most are.
+    let mut a = if a.abs() < 2.0 * PI {
+        a
+    } else {
+        a % (2.0 * PI)
+    };
     if a <= -PI {
         a += 2.0 * PI;
     } else if a > PI {
