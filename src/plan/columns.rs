@@ -302,8 +302,8 @@ impl State<'_> {
         owner: &[usize],
     ) -> Vec<(f64, f64)> {
         // joined[g]: a bead is printed from g − 1 to g.
-        let mut joined = vec![false; self.pos.len()];
-        for r in &self.runs {
+        let mut joined = vec![false; self.wp.pos.len()];
+        for r in &self.wp.runs {
             joined[r.start + 1..r.end].fill(true);
         }
         queries
@@ -340,10 +340,10 @@ impl State<'_> {
     /// waypoint that ends with an empty column is skipped.
     pub(super) fn columns(&mut self, prover: &Prover) -> Result<(), PlanError> {
         let rot = self.machine.rotary;
-        let n = self.pos.len();
+        let n = self.wp.pos.len();
         // The orientation each waypoint is planned around.
         self.centre = (0..n)
-            .map(|g| self.fixed[g].map_or(self.n1[g], |(t, c)| orientation(rot, t, c)))
+            .map(|g| self.wp.fixed[g].map_or(self.wp.n1[g], |(t, c)| orientation(rot, t, c)))
             .collect();
         let base: Vec<(usize, [(f64, f64); 2])> = (0..n).map(|g| (g, self.own_pair(g))).collect();
         self.offered = self.offer(prover, &base, true)?;
@@ -366,9 +366,9 @@ impl State<'_> {
     /// Waypoint `g`'s own orientation, as planned around (smoothed, or
     /// fixed in the singular region), as its IK pair.
     fn own_pair(&self, g: usize) -> [(f64, f64); 2] {
-        match self.fixed[g] {
+        match self.wp.fixed[g] {
             Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
-            None => ik_angles(self.machine.rotary, self.n1[g]),
+            None => ik_angles(self.machine.rotary, self.wp.n1[g]),
         }
     }
 
@@ -380,8 +380,8 @@ impl State<'_> {
     /// ([`State::plausible`]).
     fn probe(&mut self, prover: &Prover, open: &[usize]) -> Result<(), PlanError> {
         let run_of = {
-            let mut r = vec![0u32; self.pos.len()];
-            for (k, run) in self.runs.iter().enumerate() {
+            let mut r = vec![0u32; self.wp.pos.len()];
+            for (k, run) in self.wp.runs.iter().enumerate() {
                 r[run.clone()].fill(k as u32);
             }
             r
@@ -501,7 +501,7 @@ impl State<'_> {
             self.opts.beta,
             self.opts.alpha,
         );
-        std::iter::once(self.n0[g])
+        std::iter::once(self.wp.n0[g])
             .chain(sampled)
             .map(|d| ik_angles(rot, d))
             .collect()
@@ -813,7 +813,7 @@ mod tests {
             off_normal(pose.tip, pose.cols[2])
         };
         let own = |g: usize| st.own_pair(g).iter().find_map(|&tc| st.feasible(g, tc));
-        let mut out: Vec<Planned> = (0..st.pos.len())
+        let mut out: Vec<Planned> = (0..st.wp.pos.len())
             .map(|g| (own(g).as_ref().map_or(f32::INFINITY, angle), None))
             .collect();
         for (r, p) in st.sections.iter().zip(&st.paths) {

@@ -306,22 +306,9 @@ struct State<'a> {
     machine: &'a Machine,
     opts: &'a PlanOptions,
     symmetric: bool,
-    /// Tip positions, input and smoothed directions, layer of each waypoint.
-    pos: Vec<[f64; 3]>,
-    n0: Vec<[f64; 3]>,
-    n1: Vec<[f64; 3]>,
-    layer_of: Vec<usize>,
-    /// Which layer a tip position reads as (split points of beads are
-    /// placed where they read as their own layer).
-    reader: NearestLayer,
-    /// Per layer: support layer? global index of its first waypoint.
-    support: Vec<bool>,
-    layer_start: Vec<usize>,
-    /// Continuous runs (a layer, split at jumps).
-    runs: Vec<Range<usize>>,
-    /// Singular-run angles, and whether the input orientation is singular.
-    fixed: Vec<Option<(f64, f64)>>,
-    was_singular: Vec<bool>,
+    /// The waypoints as prepared: positions, input and smoothed
+    /// directions, layers, runs, the layer reader, the singular runs.
+    wp: Prepared,
     /// Candidate configurations per waypoint (as written), and beside
     /// each what is known of it ([`columns`]).
     cols: Vec<Vec<Axes>>,
@@ -483,14 +470,20 @@ pub fn plan_prepared(
 /// can make it while the scene is built ([`crate::job::Job::load_beside`]);
 /// [`plan`] makes it first.
 pub struct Prepared {
+    /// Tip positions, input and smoothed directions, layer of each waypoint.
     pos: Vec<[f64; 3]>,
     n0: Vec<[f64; 3]>,
     n1: Vec<[f64; 3]>,
     layer_of: Vec<usize>,
+    /// Which layer a tip position reads as (split points of beads are
+    /// placed where they read as their own layer).
     reader: NearestLayer,
+    /// Per layer: support layer? global index of its first waypoint.
     support: Vec<bool>,
     layer_start: Vec<usize>,
+    /// Continuous runs (a layer, split at jumps).
     runs: Vec<Range<usize>>,
+    /// Singular-run angles, and whether the input orientation is singular.
     fixed: Vec<Option<(f64, f64)>>,
     was_singular: Vec<bool>,
     /// What it was made with ([`Prepared::made_with`]).
@@ -581,16 +574,7 @@ impl<'a> State<'a> {
             machine,
             opts,
             symmetric: half_turn_symmetric(scene),
-            pos: p.pos,
-            n0: p.n0,
-            n1: p.n1,
-            layer_of: p.layer_of,
-            reader: p.reader,
-            support: p.support,
-            layer_start: p.layer_start,
-            runs: p.runs,
-            fixed: p.fixed,
-            was_singular: p.was_singular,
+            wp: p,
             cols: vec![Vec::new(); n_wp],
             nodes: vec![Vec::new(); n_wp],
             cursor: vec![columns::EXHAUSTED; n_wp],
@@ -612,7 +596,7 @@ impl<'a> State<'a> {
     /// the machine's ranges (C: some whole turn of it).
     fn feasible(&self, g: usize, tc: (f64, f64)) -> Option<Axes> {
         let m = self.machine;
-        let a = m.axes_at(self.pos[g], tc);
+        let a = m.axes_at(self.wp.pos[g], tc);
         let t = a.tilt.to_degrees();
         let inside = |v: f64, l: &crate::kinematics::AxisLimits| v >= l.min && v <= l.max;
         let ok = t >= m.tilt.min - 1e-9
@@ -625,7 +609,7 @@ impl<'a> State<'a> {
     }
 
     fn cost_model(&self, layer: usize) -> CostModel {
-        let t = self.machine.tool_for(self.support[layer]);
+        let t = self.machine.tool_for(self.wp.support[layer]);
         CostModel::new(self.machine, t.feed, t.tip_speed, self.opts.dwell_weight)
     }
 
@@ -634,8 +618,9 @@ impl<'a> State<'a> {
     fn print_moves(&self, g: usize, a: &Axes, b: &Axes) -> Vec<MoveSpec> {
         let mut b = *b;
         b.c = self.unwound(a.c, b.c);
-        let (m, layer) = (self.machine, self.layer_of[g]);
-        self.reader
+        let (m, layer) = (self.machine, self.wp.layer_of[g]);
+        self.wp
+            .reader
             .bead_moves(m, a, &b, m.tip_tolerance, layer, cutoff(g - 1))
     }
 
@@ -660,22 +645,28 @@ impl<'a> State<'a> {
         let d = ex.default_height;
         self.heights = extrusion::layer_heights(
             self.scene,
-            &self.pos,
-            &self.layer_of,
-            &self.layer_start,
+            &self.wp.pos,
+            &self.wp.layer_of,
+            &self.wp.layer_start,
             [0.05 * d, 4.0 * d],
         );
         let mut e = 0.0;
         let mut layer = usize::MAX;
         for (s, r) in self.sections.iter().enumerate() {
-            let tool = self.machine.tool_for(self.support[self.layer_of[r.start]]);
+            let tool = self
+                .machine
+                .tool_for(self.wp.support[self.wp.layer_of[r.start]]);
             for (k, g) in r.clone().enumerate() {
-                if self.layer_of[g] != layer {
-                    layer = self.layer_of[g];
+                if self.wp.layer_of[g] != layer {
+                    layer = self.wp.layer_of[g];
                     e = 0.0;
                 } else if k > 0 && !self.paths[s].breaks[k] {
                     let h = 0.5 * (self.heights[g - 1].h + self.heights[g].h);
-                    e += tool.extrusion * ex.k * h * ex.width * dist(self.pos[g - 1], self.pos[g]);
+                    e += tool.extrusion
+                        * ex.k
+                        * h
+                        * ex.width
+                        * dist(self.wp.pos[g - 1], self.wp.pos[g]);
                 }
                 self.e[g] = round_written(e);
             }
@@ -699,8 +690,10 @@ impl<'a> State<'a> {
             .iter()
             .zip(&self.paths)
             .map(|(r, p)| SectionPlan {
-                layer: self.layer_of[r.start],
-                tool: self.machine.tool_for(self.support[self.layer_of[r.start]]),
+                layer: self.wp.layer_of[r.start],
+                tool: self
+                    .machine
+                    .tool_for(self.wp.support[self.wp.layer_of[r.start]]),
                 stops: r
                     .clone()
                     .enumerate()
@@ -718,7 +711,7 @@ impl<'a> State<'a> {
             machine: self.machine,
             tip_tolerance: self.machine.tip_tolerance,
             sphere_z: self.sphere_z(prover.margin),
-            reader: &self.reader,
+            reader: &self.wp.reader,
         };
         let (program, stuck) = asm.build(&sections, prover)?;
         if !stuck.is_empty() {
@@ -762,7 +755,7 @@ impl<'a> State<'a> {
         let m = self.machine;
         let moves = program.moves(m);
         // Where the program puts each visited waypoint.
-        let n = self.pos.len();
+        let n = self.wp.pos.len();
         let mut at: Vec<Option<Axes>> = vec![None; n];
         for (_, mv) in &moves {
             if let Some(g) = mv.waypoint {
@@ -816,7 +809,7 @@ impl<'a> State<'a> {
         let mut clamped = 0usize;
         let mut segments = 0usize;
         for (s, r) in self.sections.iter().enumerate() {
-            let tool = m.tool_for(self.support[self.layer_of[r.start]]);
+            let tool = m.tool_for(self.wp.support[self.wp.layer_of[r.start]]);
             let cm = CostModel::new(m, tool.feed, tool.tip_speed, self.opts.dwell_weight);
             for (k, g) in r.clone().enumerate().skip(1) {
                 if self.paths[s].breaks[k] {
@@ -867,12 +860,12 @@ impl<'a> State<'a> {
             .map(|g| {
                 let (axes, nn) = match at[g] {
                     Some(a) => (a, orientation(rot, a.tilt, a.c)),
-                    None => (Axes::default(), self.n0[g]),
+                    None => (Axes::default(), self.wp.n0[g]),
                 };
                 PlannedWaypoint {
-                    layer: self.layer_of[g],
-                    support: self.support[self.layer_of[g]],
-                    p: self.pos[g],
+                    layer: self.wp.layer_of[g],
+                    support: self.wp.support[self.wp.layer_of[g]],
+                    p: self.wp.pos[g],
                     n: nn,
                     axes,
                     e: self.e[g],
@@ -880,7 +873,7 @@ impl<'a> State<'a> {
                     section_start: section_start[g],
                     break_before: brk[g],
                     was_colliding: false,
-                    was_singular: self.was_singular[g],
+                    was_singular: self.wp.was_singular[g],
                     singular: at[g].is_some() && singular::is_singular(nn, self.opts.alpha),
                     skipped: self.skip[g],
                 }
@@ -889,7 +882,7 @@ impl<'a> State<'a> {
         out.singular_waypoints = wps.iter().filter(|w| w.singular).count();
         let dev: Vec<f64> = wps
             .iter()
-            .zip(&self.n0)
+            .zip(&self.wp.n0)
             .filter(|(w, _)| w.skipped.is_none())
             .map(|(w, n)| {
                 (w.n[0] * n[0] + w.n[1] * n[1] + w.n[2] * n[2])
@@ -909,14 +902,14 @@ impl<'a> State<'a> {
             .filter(|&g| self.skip[g] != Some(Skip::Isolated))
             .collect();
         for &g in unsafe_skips.iter().take(20) {
-            let l = self.layer_of[g];
+            let l = self.wp.layer_of[g];
             let why = match self.skip[g] {
                 Some(Skip::Unreachable) => "outside the machine's axis ranges in every orientation",
                 _ => "no orientation the machine can reach keeps the safety margin",
             };
             self.warnings.push(format!(
                 "waypoint {g} (layer {l}, #{} in it) skipped: {why}",
-                g - self.layer_start[l]
+                g - self.wp.layer_start[l]
             ));
         }
         if unsafe_skips.len() > 20 {
@@ -970,12 +963,12 @@ impl<'a> InputJob<'a> {
         InputJob {
             machine: st.machine,
             opts: st.opts,
-            pos: st.pos.clone(),
-            n0: st.n0.clone(),
-            layer_of: st.layer_of.clone(),
-            support: st.support.clone(),
-            runs: st.runs.clone(),
-            singular: st.was_singular.iter().filter(|&&s| s).count(),
+            pos: st.wp.pos.clone(),
+            n0: st.wp.n0.clone(),
+            layer_of: st.wp.layer_of.clone(),
+            support: st.wp.support.clone(),
+            runs: st.wp.runs.clone(),
+            singular: st.wp.was_singular.iter().filter(|&&s| s).count(),
         }
     }
 

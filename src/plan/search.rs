@@ -50,7 +50,7 @@ impl State<'_> {
     /// candidates solved again. Sections end in print order.
     pub(super) fn graph(&mut self, prover: &Prover) -> Result<(), PlanError> {
         // Sections: runs split at skipped waypoints.
-        for r in &self.runs {
+        for r in &self.wp.runs {
             let mut start = r.start;
             for g in r.clone() {
                 if self.skip[g].is_some() {
@@ -64,13 +64,18 @@ impl State<'_> {
                 self.sections.push(start..r.end);
             }
         }
-        let lens: Vec<f64> = (0..self.pos.len())
-            .map(|g| self.pos.get(g + 1).map_or(0.0, |q| dist(self.pos[g], *q)))
+        let lens: Vec<f64> = (0..self.wp.pos.len())
+            .map(|g| {
+                self.wp
+                    .pos
+                    .get(g + 1)
+                    .map_or(0.0, |q| dist(self.wp.pos[g], *q))
+            })
             .collect();
         let mut models: Vec<CostModel> = self
             .sections
             .iter()
-            .map(|r| self.cost_model(self.layer_of[r.start]))
+            .map(|r| self.cost_model(self.wp.layer_of[r.start]))
             .collect();
         let mut search = Search {
             edges: vec![Blocked::default(); self.sections.len()],
@@ -351,7 +356,7 @@ impl State<'_> {
         if after.is_empty() {
             return None;
         }
-        let model = self.cost_model(self.layer_of[after.start]);
+        let model = self.cost_model(self.wp.layer_of[after.start]);
         self.sections.push(after);
         models.push(model);
         search.edges.push(Blocked::default());
