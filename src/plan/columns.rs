@@ -115,29 +115,18 @@ impl State<'_> {
     /// a C range: one node per whole turn of C inside it), unless the
     /// column holds it already. Returns whether it was added.
     fn push_config(&mut self, g: usize, a: Axes, status: Status, pose: u32) -> bool {
-        let Some(range) = self.machine.c.range else {
-            // (No C range, one node: without the list of windings, which
-            // was a million small allocations on the tilted row.)
-            if self.cols[g].contains(&a) {
-                return false;
-            }
-            self.cols[g].push(a);
-            self.nodes[g].push(Node {
-                status,
-                pose,
-                counted: true,
-            });
-            return true;
-        };
-        let all: Vec<Axes> = windings(a.c, range)
-            .into_iter()
-            .map(|c| Axes { c, ..a })
-            .collect();
-        if all.first().is_none_or(|first| self.cols[g].contains(first)) {
+        // (Without a C range, `a`'s own C and no list: a list per config
+        // was a million small allocations on the tilted row.)
+        let turns = self.machine.c.range.map(|range| windings(a.c, range));
+        let all = turns.as_deref().unwrap_or(std::slice::from_ref(&a.c));
+        if all
+            .first()
+            .is_none_or(|&c| self.cols[g].contains(&Axes { c, ..a }))
+        {
             return false;
         }
-        for (k, a) in all.into_iter().enumerate() {
-            self.cols[g].push(a);
+        for (k, &c) in all.iter().enumerate() {
+            self.cols[g].push(Axes { c, ..a });
             self.nodes[g].push(Node {
                 status,
                 pose,

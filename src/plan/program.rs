@@ -387,20 +387,20 @@ impl Assembly<'_> {
             steps: Vec::new(),
         };
         let mut pending = Vec::new();
-        let mut pieces = self.bead_pieces(sections, &home).into_iter();
+        let written = self.written(sections, &home);
+        let mut pieces = self.bead_pieces(sections, &written).into_iter();
         let mut at = home;
         let mut e = 0.0;
         let mut z_run = f64::NEG_INFINITY;
         let mut tool = sections.first().map(|s| s.tool);
         let mut last_g: Option<usize> = None;
         let mut prev_layer: Option<usize> = None;
-        for sec in sections {
+        for (sec, written) in sections.iter().zip(&written) {
             let Some(first) = sec.stops.first() else {
                 continue;
             };
             let new_layer = prev_layer != Some(sec.layer);
-            let mut target = first.axes;
-            target.c = unwind(m, at.c, target.c);
+            let target = written[0];
             let change = (tool != Some(sec.tool)).then_some(sec.tool);
             let t = self.travel(
                 &at,
@@ -420,9 +420,7 @@ impl Assembly<'_> {
             e = first.e;
             z_run = z_run.max(at.xyz[2]);
             let mut prev = *first;
-            for s in &sec.stops[1..] {
-                let mut b = s.axes;
-                b.c = unwind(m, at.c, b.c);
+            for (s, &b) in sec.stops.iter().zip(written).skip(1) {
                 if s.brk {
                     let t = self.travel(
                         &at,
@@ -439,7 +437,6 @@ impl Assembly<'_> {
                     prog.steps.push(Step::Travel(Box::new(t)));
                 } else {
                     let pts = pieces.next().expect("a bead's pieces");
-                    debug_assert!(pts.first().is_none_or(|p| p.from == at));
                     let n = pts.len();
                     for (k, mv) in pts.into_iter().enumerate() {
                         let f = (k + 1) as f64 / n as f64;
@@ -494,32 +491,44 @@ impl Assembly<'_> {
         Ok((prog, failed))
     }
 
-    /// The pieces of every bead of `sections` in print order
-    /// ([`NearestLayer::bead_moves`]), the stops' C unwound as
-    /// [`Assembly::build`] writes them (from `home` on). The split is most
-    /// of the assembly's work and each bead's is its own: they are split
-    /// side by side (dome_cut's 176 k beads: 0.24 s alone).
-    fn bead_pieces(&self, sections: &[SectionPlan], home: &Axes) -> Vec<Vec<MoveSpec>> {
-        let m = self.machine;
-        let mut beads = Vec::new();
+    /// Every stop's axes as written: C unwound next to the stop before
+    /// (from `home` on), the way the machine will turn.
+    fn written(&self, sections: &[SectionPlan], home: &Axes) -> Vec<Vec<Axes>> {
         let mut c = home.c;
-        for sec in sections {
-            let mut prev: Option<(&Stop, Axes)> = None;
-            for s in &sec.stops {
-                let mut b = s.axes;
-                b.c = unwind(m, c, b.c);
-                c = b.c;
-                if let Some((p, a)) = prev.filter(|_| !s.brk) {
-                    beads.push((a, b, sec.layer, p.g as u32 + 1));
-                }
-                prev = Some((s, b));
-            }
-        }
+        sections
+            .iter()
+            .map(|sec| {
+                sec.stops
+                    .iter()
+                    .map(|s| {
+                        c = unwind(self.machine, c, s.axes.c);
+                        Axes { c, ..s.axes }
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// The pieces of every bead of `sections` in print order
+    /// ([`NearestLayer::bead_moves`]) between the stops as `written`.
+    /// The split is most of the assembly's work and each bead's is its
+    /// own: they are split side by side (dome_cut's 176 k beads: 0.24 s
+    /// alone).
+    fn bead_pieces(&self, sections: &[SectionPlan], written: &[Vec<Axes>]) -> Vec<Vec<MoveSpec>> {
+        let beads: Vec<(&Axes, &Axes, usize, u32)> = sections
+            .iter()
+            .zip(written)
+            .flat_map(|(sec, w)| {
+                (1..sec.stops.len())
+                    .filter(|&k| !sec.stops[k].brk)
+                    .map(move |k| (&w[k - 1], &w[k], sec.layer, sec.stops[k - 1].g as u32 + 1))
+            })
+            .collect();
         beads
             .par_iter()
-            .map(|(a, b, layer, cutoff)| {
+            .map(|&(a, b, layer, cutoff)| {
                 self.reader
-                    .bead_moves(m, a, b, self.tip_tolerance, *layer, *cutoff)
+                    .bead_moves(self.machine, a, b, self.tip_tolerance, layer, cutoff)
             })
             .collect()
     }
