@@ -478,11 +478,16 @@ pub fn plan_prepared(
 /// stage). Elsewhere than glibc, nothing to do.
 fn release_freed_memory() {
     #[cfg(all(target_os = "linux", target_env = "gnu"))]
-    // SAFETY: mallinfo2 reads the allocator's statistics and malloc_trim
+    // SAFETY: mallinfo reads the allocator's statistics and malloc_trim
     // returns free pages to the kernel; both take the allocator's locks
     // like any malloc call and touch no memory in use.
     unsafe {
-        if libc::mallinfo2().fordblks > RETAINED_AT_MOST {
+        // `mallinfo`, not `mallinfo2`: that needs glibc 2.33, and
+        // distributions still in service ship older ones. Its `int` field
+        // holds the low 32 bits of the count, exact below 4 GiB freed;
+        // beyond, a wrapped count at worst skips one trim.
+        let freed = libc::mallinfo().fordblks as u32 as usize;
+        if freed > RETAINED_AT_MOST {
             libc::malloc_trim(0);
         }
     }
