@@ -218,32 +218,35 @@ impl Scene {
         let (head, head_cache) = head?;
 
         // Every group's triangles, numbered in group order (their
-        // `source`), gathered side by side.
-        let firsts: Vec<usize> = groups
-            .iter()
-            .scan(0, |n, g| {
-                let first = *n;
-                *n += g.stamps.len();
-                Some(first)
-            })
-            .collect();
-        let soup: Vec<GpuTriangle> = groups
-            .par_iter()
-            .zip(firsts)
-            .flat_map_iter(|(g, first)| {
-                g.stamps.iter().enumerate().map(move |(i, &stamp)| {
+        // `source`), written side by side straight into one buffer (a
+        // parallel collect of unknown length went through a list of
+        // vectors and copied each again).
+        let mut soup = vec![GpuTriangle::default(); groups.iter().map(|g| g.stamps.len()).sum()];
+        let mut rest = soup.as_mut_slice();
+        let mut parts = Vec::with_capacity(groups.len());
+        let mut first = 0;
+        for g in &groups {
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(g.stamps.len());
+            parts.push((part, first));
+            first += g.stamps.len();
+            rest = tail;
+        }
+        parts
+            .into_par_iter()
+            .zip(&groups)
+            .for_each(|((part, first), g)| {
+                for (i, t) in part.iter_mut().enumerate() {
                     let [v0, v1, v2] = g.mesh.corners(i);
-                    GpuTriangle {
+                    *t = GpuTriangle {
                         v0,
-                        stamp,
+                        stamp: g.stamps[i],
                         v1,
                         layer: g.layer.map_or(u32::MAX, |l| l as u32),
                         v2,
                         source: (first + i) as u32,
-                    }
-                })
-            })
-            .collect();
+                    };
+                }
+            });
         let part = bvh::build(&soup, 4, head_extent * bvh::LAYER_LIFT_PER_HEAD)?;
         drop(soup);
         let mut part_nodes = bvh::sphere_nodes(&part);
