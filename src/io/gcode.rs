@@ -31,13 +31,12 @@ pub struct GcodeHeader {
     pub command: String,
 }
 
-/// `x` with three decimals, never `-0.000`.
-fn f3(x: f64) -> String {
-    let s = super::fixed::fixed(x + 0.0, 3);
-    if s == "-0.000" {
-        "0.000".into()
-    } else {
-        s
+/// Append `x` with three decimals, never `-0.000`.
+fn push_f3(out: &mut String, x: f64) {
+    let at = out.len();
+    super::fixed::push_fixed(out, x + 0.0, 3);
+    if &out[at..] == "-0.000" {
+        out.replace_range(at..at + 1, "");
     }
 }
 
@@ -76,8 +75,13 @@ struct Writer<'a> {
     tilt: char,
     c: char,
     feed: Option<String>,
+    /// The mm/s whose text `feed` is: the same speed needs no new text.
+    feed_of: Option<f64>,
     /// Extruder position as the program last left it.
     e: f64,
+    /// The current line's feed word, kept between lines so that it is
+    /// not allocated for each.
+    f_word: String,
 }
 
 impl Writer<'_> {
@@ -85,90 +89,112 @@ impl Writer<'_> {
         self.post.interpolation() == Interpolation::TipLinear
     }
 
-    /// The position words of `a`: machine X Y Z (shifted by minus the
-    /// nozzle offset), or the part-frame tip when `tip` (tool-centre-point
-    /// control on); then the rotary axes.
-    fn axes_words(&self, a: &Axes, offset: [f64; 2], tip: bool) -> String {
+    /// Append the position words of `a`: machine X Y Z (shifted by minus
+    /// the nozzle offset), or the part-frame tip when `tip` (tool-centre-point
+    /// control on); then the rotary axes. Every word goes straight into
+    /// `out`: a program has hundreds of thousands of lines, and a string per
+    /// word was most of the time it took to write.
+    fn push_axes(&mut self, a: &Axes, offset: [f64; 2], tip: bool) {
         let xyz = if tip {
             self.m.tip(a)
         } else {
             [a.xyz[0] - offset[0], a.xyz[1] - offset[1], a.xyz[2]]
         };
-        format!(
-            "X{} Y{} Z{} {}{} {}{}",
-            f3(xyz[0]),
-            f3(xyz[1]),
-            f3(xyz[2]),
-            self.tilt,
-            f3(self.post.tilt_sign * a.tilt.to_degrees()),
-            self.c,
-            f3(self.post.c_sign * a.c.to_degrees())
-        )
+        let out = &mut self.out;
+        for (letter, v) in ['X', 'Y', 'Z'].into_iter().zip(xyz) {
+            if letter != 'X' {
+                out.push(' ');
+            }
+            out.push(letter);
+            push_f3(out, v);
+        }
+        out.push(' ');
+        out.push(self.tilt);
+        push_f3(out, self.post.tilt_sign * a.tilt.to_degrees());
+        out.push(' ');
+        out.push(self.c);
+        push_f3(out, self.post.c_sign * a.c.to_degrees());
     }
 
-    /// ` F…` when the feed changes (G94), or every `G1` line's inverse
-    /// time (G93: `seconds` of the line; rapids take none).
-    fn feed_word(&mut self, mm_s: f64, rapid: bool, seconds: impl FnOnce() -> f64) -> String {
+    /// Sets `f_word` to ` F…` when the feed changes (G94), or to every `G1`
+    /// line's inverse time (G93: `seconds` of the line; rapids take none);
+    /// empty otherwise.
+    fn feed_word(&mut self, mm_s: f64, rapid: bool, seconds: impl FnOnce() -> f64) {
+        self.f_word.clear();
         if self.post.feed == FeedMode::G93 {
-            return if rapid {
-                String::new()
-            } else {
-                format!(" F{}", inverse_time(seconds()))
-            };
+            if !rapid {
+                self.f_word.push_str(" F");
+                self.f_word.push_str(&inverse_time(seconds()));
+            }
+            return;
         }
+        if self.feed_of == Some(mm_s) {
+            return;
+        }
+        self.feed_of = Some(mm_s);
         let f = feed(mm_s);
-        if self.feed.as_deref() == Some(f.as_str()) {
-            String::new()
-        } else {
-            self.feed = Some(f.clone());
-            format!(" F{f}")
+        if self.feed.as_deref() != Some(f.as_str()) {
+            self.f_word.push_str(" F");
+            self.f_word.push_str(&f);
+            self.feed = Some(f);
         }
     }
 
-    /// ` E…` for a line that leaves the extruder at `e`.
-    fn e_word(&mut self, e: f64) -> String {
+    /// Append `E…` for a line that leaves the extruder at `e`.
+    fn push_e(&mut self, e: f64) {
         let w = match self.post.extrusion {
-            ExtrusionMode::Absolute => f3(e),
-            ExtrusionMode::Relative => f3(e - self.e),
+            ExtrusionMode::Absolute => e,
+            ExtrusionMode::Relative => e - self.e,
         };
         self.e = e;
-        format!("E{w}")
+        self.out.push('E');
+        push_f3(&mut self.out, w);
     }
 
+    /// Append the line of `mv` (from `from`), with its feed word.
     fn line(&mut self, from: &Axes, mv: &Move) {
         let moves_axes = !matches!(mv.kind, MoveKind::Retract | MoveKind::Prime);
         if moves_axes && mv.to == *from && mv.kind != MoveKind::Print {
             return; // Already there (e.g. no lift needed at the start).
         }
-        let words = self.axes_words(&mv.to, mv.offset, self.tcp());
         let rapid = matches!(mv.kind, MoveKind::Lift | MoveKind::Lower | MoveKind::Travel);
         let (m, e) = (self.m, self.e);
-        let f = self.feed_word(mv.feed, rapid, || {
+        self.feed_word(mv.feed, rapid, || {
             move_seconds(m, from, &mv.to, mv.feed, mv.e - e)
         });
-        let _ = match mv.kind {
+        let tcp = self.tcp();
+        match mv.kind {
             MoveKind::Print => {
-                let e = self.e_word(mv.e);
-                writeln!(self.out, "G1 {words} {e}{f}")
+                self.out.push_str("G1 ");
+                self.push_axes(&mv.to, mv.offset, tcp);
+                self.out.push(' ');
+                self.push_e(mv.e);
             }
             MoveKind::Retract | MoveKind::Prime => {
-                let e = self.e_word(mv.e);
-                writeln!(self.out, "G1 {e}{f}")
+                self.out.push_str("G1 ");
+                self.push_e(mv.e);
             }
             MoveKind::Lift | MoveKind::Lower
-                if !self.tcp()
+                if !tcp
                     && mv.to.xyz[0] == from.xyz[0]
                     && mv.to.xyz[1] == from.xyz[1]
                     && mv.to.tilt == from.tilt
                     && mv.to.c == from.c =>
             {
-                writeln!(self.out, "G0 Z{}{f}", f3(mv.to.xyz[2]))
+                self.out.push_str("G0 Z");
+                push_f3(&mut self.out, mv.to.xyz[2]);
             }
             MoveKind::Lift | MoveKind::Lower | MoveKind::Travel => {
-                writeln!(self.out, "G0 {words}{f}")
+                self.out.push_str("G0 ");
+                self.push_axes(&mv.to, mv.offset, tcp);
             }
-            MoveKind::Approach => writeln!(self.out, "G1 {words}{f}"),
-        };
+            MoveKind::Approach => {
+                self.out.push_str("G1 ");
+                self.push_axes(&mv.to, mv.offset, tcp);
+            }
+        }
+        self.out.push_str(&self.f_word);
+        self.out.push('\n');
     }
 
     fn header(&mut self, header: &GcodeHeader) {
@@ -225,7 +251,9 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
         tilt: post.tilt_letter(m.rotary),
         c: post.c_letter(),
         feed: None,
+        feed_of: None,
         e: 0.0,
+        f_word: String::new(),
     };
     w.header(header);
     let relative = post.extrusion == ExtrusionMode::Relative;
@@ -238,9 +266,11 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
     }
     // Homing is in machine coordinates in every dialect.
     let home = prog.home;
-    let f = w.feed_word(m.travel.speed, true, || 0.0);
-    let words = w.axes_words(&home, [0.0; 2], false);
-    let _ = writeln!(w.out, "G28 {words}{f}");
+    w.feed_word(m.travel.speed, true, || 0.0);
+    w.out.push_str("G28 ");
+    w.push_axes(&home, [0.0; 2], false);
+    let f = std::mem::take(&mut w.f_word);
+    let _ = writeln!(w.out, "{f}");
     let tool = prog.first_tool.map_or(m.extrusion.tool, |t| t.tool);
     if let Some(t) = prog.first_tool {
         let _ = writeln!(w.out, "T{}\nM109 S{} T{}", t.tool, t.temperature, t.tool);
@@ -302,3 +332,18 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
 pub use super::gcode_read::{
     axes_of, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove,
 };
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn words_are_written_with_three_decimals_and_never_minus_zero() {
+        let mut s = String::new();
+        for x in [-0.0004, -0.0, 0.0, 0.0004, -0.0005, 1.2345, -12.5, 230.0] {
+            push_f3(&mut s, x);
+            s.push(' ');
+        }
+        assert_eq!(s, "0.000 0.000 0.000 0.000 -0.001 1.234 -12.500 230.000 ");
+    }
+}
