@@ -5,6 +5,7 @@
 //! and lines starting with `#` are skipped. Normals are normalised.
 
 use super::mesh::load_mesh;
+use super::number::parse_f32;
 use super::{read_to_string, InputError, Placement};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
 use rayon::prelude::*;
@@ -110,23 +111,31 @@ pub fn parse_waypoints(
         if line.is_empty() || line.starts_with('#') {
             continue;
         }
-        let fields: Vec<&str> = line
+        // Up to seven fields are kept (a seventh only to say how many
+        // there are): no list is allocated per line.
+        let mut fields = [""; 7];
+        let mut count = 0;
+        for f in line
             .split(|c: char| c.is_whitespace() || c == ',')
             .filter(|s| !s.is_empty())
-            .collect();
-        if fields.len() != 6 {
+        {
+            if count < fields.len() {
+                fields[count] = f;
+            }
+            count += 1;
+        }
+        if count != 6 {
             return Err(InputError::at(
                 path,
                 n,
                 format!(
-                    "expected 6 numbers (px py pz nx ny nz), found {}: fix or remove this line",
-                    fields.len()
+                    "expected 6 numbers (px py pz nx ny nz), found {count}: fix or remove this line"
                 ),
             ));
         }
         let mut v = [0f32; 6];
-        for (k, f) in fields.iter().enumerate() {
-            let x: f32 = f.parse().map_err(|_| {
+        for (k, f) in fields[..6].iter().enumerate() {
+            let x = parse_f32(f.as_bytes()).ok_or_else(|| {
                 InputError::at(
                     path,
                     n,
