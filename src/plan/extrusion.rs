@@ -7,9 +7,11 @@
 //! on.
 //!
 //! The distance is a nearest-triangle search over the scene's part BVH
-//! (bounding spheres), skipping subtrees printed after the layer starts
-//! and triangles of layers outside the look-back window, starting from
-//! the triangle nearest to the previous waypoint.
+//! (bounding spheres and slabs), skipping subtrees printed after the
+//! layer starts and triangles of layers outside the look-back window,
+//! started from where the search for the previous waypoint ended (its
+//! nearest triangle, and the cut of the tree it stopped at, with bounds
+//! that hold a bead away: [`Carry`]).
 
 use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::scene::slab::{oct_decode, unpack_snorm2x16};
@@ -42,30 +44,44 @@ pub fn layer_heights(
     let below = Below::new(scene, layer_start, LOOKBACK);
     pos.par_iter()
         .zip(layer_of.par_iter())
-        .map_init(
-            || None,
-            |last: &mut Option<u32>, (&p, &k)| {
-                let (d, t) = below.nearest(p, k, hi, *last);
-                *last = t.or(*last);
-                if d >= hi {
-                    Height {
-                        h: hi,
-                        clamped: true,
-                    }
-                } else if d < lo {
-                    Height {
-                        h: lo,
-                        clamped: true,
-                    }
-                } else {
-                    Height {
-                        h: d,
-                        clamped: false,
-                    }
+        .map_init(Carry::default, |carry, (&p, &k)| {
+            let d = below.nearest_carried(p, k, hi, carry);
+            if d >= hi {
+                Height {
+                    h: hi,
+                    clamped: true,
                 }
-            },
-        )
+            } else if d < lo {
+                Height {
+                    h: lo,
+                    clamped: true,
+                }
+            } else {
+                Height {
+                    h: d,
+                    clamped: false,
+                }
+            }
+        })
         .collect()
+}
+
+/// What a worker keeps from its last search ([`Below::nearest_carried`]):
+/// the point and layer it measured, the triangle nearest to it, and the
+/// *cut* of the tree the search ended at — the subtrees it skipped by
+/// their bounds and the leaves it read, each with a lower bound on its
+/// distance from that point. Subtrees of no interest to the layer (printed
+/// after it starts, or older than its window) are left out, so every
+/// triangle the layer may rest on lies below exactly one cut node.
+#[derive(Default)]
+struct Carry {
+    last: Option<([f64; 3], usize)>,
+    hint: Option<u32>,
+    cut: Vec<(u32, f64)>,
+    next: Vec<(u32, f64)>,
+    stack: Vec<(u32, f64)>,
+    /// The size of the last cut found from the root.
+    from_root: usize,
 }
 
 /// The surfaces a waypoint may rest on: the platform and the layers in
@@ -114,84 +130,122 @@ impl<'a> Below<'a> {
             slabs: scene.part_nodes.par_iter().map(Slab::of).collect(),
         }
     }
+}
 
-    /// The distance from `p` to the nearest triangle of the platform or
-    /// of the layers `layer − lookback .. layer` printed before `layer`
-    /// starts, if below `limit` (else `limit`), and that triangle. The
-    /// search starts from the distance to `hint` (the triangle nearest to
-    /// the previous waypoint a worker measured: neighbours rest on the
-    /// same surface), so the walk is pruned by their bounds from
-    /// its first node (dome_cut's stage 0.48 → 0.45 s). The minimum is the
-    /// one a search from `limit` finds, whatever the hint.
-    fn nearest(
-        &self,
-        p: [f64; 3],
-        layer: usize,
-        limit: f64,
-        hint: Option<u32>,
-    ) -> (f64, Option<u32>) {
+impl Below<'_> {
+    /// [`Below::nearest`]'s distance for `p` (layer `layer`, at most
+    /// `limit`), searched from the cut `carry` kept of the worker's last
+    /// search when it was of the same layer. Distances to a point are
+    /// 1-Lipschitz, so a bound `b` found at the last point `q` is at least
+    /// `b − |p − q|` here: a cut node whose carried bound still reaches
+    /// the best distance so far costs a comparison, and only the others
+    /// are searched again, each from where the last search left it (a
+    /// layer's waypoints follow each other a bead apart, and the patches
+    /// under them are the same few leaves). The minimum is the one a
+    /// search from the root finds. As in the cpu collision walk
+    /// ([`crate::collide::frontier`]), a cut only gets finer, so once it
+    /// has grown by half over the last cut found from the root, the search
+    /// starts from the root again.
+    fn nearest_carried(&self, p: [f64; 3], layer: usize, limit: f64, carry: &mut Carry) -> f64 {
         let scene = self.scene;
         let first = layer.saturating_sub(self.lookback);
         let cutoff = self.layer_start[layer] as u32 + 1;
-        // Stamps of layers before the window are at most this.
         let older = self.layer_start[first] as u32;
         let wanted = |l: u32| l == u32::MAX || (l as usize >= first && (l as usize) < layer);
         let v = |a: [f32; 3]| a.map(|x| x as f64);
-        let mut best = (limit, None);
-        if let Some(t) = hint.map(|t| &scene.part_tris[t as usize]) {
+        let mut best = limit;
+        let mut nearest = None;
+        if let Some(t) = carry.hint.map(|t| &scene.part_tris[t as usize]) {
             if t.stamp < cutoff && wanted(t.layer) {
                 let d = point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2));
-                if d < best.0 {
-                    best = (d, hint);
+                if d < best {
+                    (best, nearest) = (d, carry.hint);
                 }
             }
         }
-        // A node worth a visit: printed before the layer, not wholly
-        // older than the window, and nearer than the best so far by its
-        // bound (returned, so it is computed once).
-        let open = |i: u32, best: f64| {
+        // A node's bound at `p`, `None` when nothing below it is of
+        // interest to the layer.
+        let bound = |i: u32, best: f64| {
             let node = &scene.part_nodes[i as usize];
             let too_old = node.min_stamp > 0 && self.max_stamp[i as usize] <= older;
             if node.min_stamp >= cutoff || too_old {
                 return None;
             }
-            let b = distance_bound(p, node, &self.slabs[i as usize], best);
-            (b < best).then_some(b)
+            Some(distance_bound(p, node, &self.slabs[i as usize], best))
         };
-        // Nodes with their bounds, nearer child popped first.
-        let mut stack: Vec<(u32, f64)> = open(0, best.0).map(|b| (0, b)).into_iter().collect();
-        while let Some((i, b)) = stack.pop() {
-            if b >= best.0 {
-                continue;
+        let Carry {
+            last,
+            cut,
+            next,
+            stack,
+            from_root,
+            ..
+        } = carry;
+        next.clear();
+        let moved = match *last {
+            Some((q, l)) if l == layer && 2 * cut.len() <= 3 * *from_root + 32 => {
+                let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+                // (Rounded up for the sums and the square root.)
+                Some((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * (1.0 + 1e-12) + 1e-12)
             }
-            let node = &scene.part_nodes[i as usize];
-            match node.leaf_range() {
-                Some((start, count)) => {
-                    for k in start..start + count {
-                        let t = &scene.part_tris[k as usize];
-                        if t.stamp >= cutoff || !wanted(t.layer) {
-                            continue;
+            _ => None,
+        };
+        let roots: &[(u32, f64)] = if moved.is_some() { cut } else { &[(0, 0.0)] };
+        for &(root, carried) in roots {
+            if let Some(moved) = moved {
+                let b = carried - moved;
+                if b >= best {
+                    next.push((root, b));
+                    continue;
+                }
+            }
+            let Some(b) = bound(root, best) else { continue };
+            stack.push((root, b));
+            // Nearer child popped first; every node left behind goes into
+            // the new cut with its bound.
+            while let Some((i, b)) = stack.pop() {
+                if b >= best {
+                    next.push((i, b));
+                    continue;
+                }
+                let node = &scene.part_nodes[i as usize];
+                match node.leaf_range() {
+                    Some((start, count)) => {
+                        let mut leaf = f64::INFINITY;
+                        for k in start..start + count {
+                            let t = &scene.part_tris[k as usize];
+                            if t.stamp >= cutoff || !wanted(t.layer) {
+                                continue;
+                            }
+                            let d = point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2));
+                            leaf = leaf.min(d);
+                            if d < best {
+                                (best, nearest) = (d, Some(k));
+                            }
                         }
-                        let d = point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2));
-                        if d < best.0 {
-                            best = (d, Some(k));
+                        if leaf < f64::INFINITY {
+                            next.push((i, leaf));
+                        }
+                    }
+                    None => {
+                        let (l, r) = (node.packed, node.packed + 1);
+                        match (bound(l, best), bound(r, best)) {
+                            (Some(x), Some(y)) if y < x => stack.extend([(l, x), (r, y)]),
+                            (Some(x), Some(y)) => stack.extend([(r, y), (l, x)]),
+                            (Some(x), None) => stack.push((l, x)),
+                            (None, Some(y)) => stack.push((r, y)),
+                            (None, None) => {}
                         }
                     }
                 }
-                None => {
-                    let (l, r) = (node.packed, node.packed + 1);
-                    let (bl, br) = (open(l, best.0), open(r, best.0));
-                    let (near, far) = match (bl, br) {
-                        (Some(x), Some(y)) if y < x => ((r, y), Some((l, x))),
-                        (Some(x), y) => ((l, x), y.map(|y| (r, y))),
-                        (None, Some(y)) => ((r, y), None),
-                        (None, None) => continue,
-                    };
-                    stack.extend(far);
-                    stack.push(near);
-                }
             }
         }
+        if moved.is_none() {
+            *from_root = next.len();
+        }
+        std::mem::swap(cut, next);
+        *last = Some((p, layer));
+        carry.hint = nearest.or(carry.hint);
         best
     }
 }
@@ -200,7 +254,7 @@ impl<'a> Below<'a> {
 /// larger of its sphere's and its slab's (every vertex below lies in the
 /// sphere and in the slab `lo ≤ n · (x − c) ≤ hi`, so every point of its
 /// triangles does); the slab only when the sphere does not already reach
-/// `best`, and `best` itself when the sphere clearly does. A waypoint
+/// `best`. A waypoint
 /// sits a layer height above the patch it rests on and more above the
 /// patches of the layers before; the spheres of those patches reach it,
 /// their slabs do not.
@@ -209,12 +263,9 @@ fn distance_bound(p: [f64; 3], node: &GpuPartNode, slab: &Slab, best: f64) -> f6
     let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
     let r = node.radius as f64;
     let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-    // Clearly beyond `best` by the sphere (a relative 1e-9 more than
-    // rounding can move the comparison): no square root.
-    let reach = best + r;
-    if reach >= 0.0 && d2 > reach * reach * (1.0 + 1e-9) {
-        return best;
-    }
+    // (No shortcut past the square root when the sphere clearly lies
+    // beyond `best`: the bound is carried to the next waypoint, where
+    // the true one saves a search.)
     let sphere = d2.sqrt() - r;
     if sphere >= best {
         return sphere;
@@ -291,14 +342,16 @@ mod tests {
         assert!(h[7].clamped && h[7].h == 2.0);
     }
 
-    /// Whatever triangle the search starts from (one of another layer,
-    /// one printed later, one far away, none), it ends at the minimum a
-    /// plain loop finds over every triangle of the platform and of the
-    /// window's layers printed before the waypoint's layer starts, and
-    /// names a triangle at that distance; also with windows short enough
-    /// to leave layers out (the subtrees older than the window skipped).
+    /// Whatever the search starts from — the cut of the waypoint before
+    /// (of the same layer or of another), of a waypoint far away, or
+    /// nothing, with any triangle as the hint (one of another layer, one
+    /// printed later, one far away, none) — it ends at the minimum a plain
+    /// loop finds over every triangle of the platform and of the window's
+    /// layers printed before the waypoint's layer starts; also with
+    /// windows short enough to leave layers out (the subtrees older than
+    /// the window skipped), and across the resets of a growing cut.
     #[test]
-    fn any_hint_gives_the_plain_minimum() {
+    fn carried_searches_give_the_plain_minimum() {
         let job = crate::default_job::job();
         let scene = crate::default_job::scene();
         let starts = job.toolpath.layer_offsets();
@@ -306,40 +359,69 @@ mod tests {
         assert!(layers > 3, "{layers} layers");
         let n = scene.part_tris.len() as u32;
         let v = |a: [f32; 3]| a.map(|x| x as f64);
-        let (mut checked, mut skipped) = (0, 0);
+        let points: Vec<(usize, [f64; 3])> = job
+            .toolpath
+            .iter()
+            .map(|(k, w)| (k, w.pos.map(|x| x as f64)))
+            .collect();
+        let plain = |k: usize, p: [f64; 3], lookback: usize| {
+            let first = k.saturating_sub(lookback);
+            let cutoff = starts[k] as u32 + 1;
+            scene
+                .part_tris
+                .iter()
+                .filter(|t| {
+                    t.stamp < cutoff
+                        && (t.layer == u32::MAX || (first..k).contains(&(t.layer as usize)))
+                })
+                .map(|t| point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2)))
+                .fold(4.0, f64::min)
+        };
+        let (mut checked, mut skipped, mut carried, mut resets) = (0, 0, 0, 0);
         for lookback in [1, 2, LOOKBACK] {
             let below = Below::new(&scene, &starts, lookback);
-            for (g, (k, w)) in job.toolpath.iter().enumerate().step_by(37) {
-                let p = w.pos.map(|x| x as f64);
-                let first = k.saturating_sub(lookback);
-                let cutoff = starts[k] as u32 + 1;
-                let plain = scene
-                    .part_tris
-                    .iter()
-                    .filter(|t| {
-                        t.stamp < cutoff
-                            && (t.layer == u32::MAX || (first..k).contains(&(t.layer as usize)))
-                    })
-                    .map(|t| point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2)))
-                    .fold(4.0, f64::min);
-                for hint in [None, Some(0), Some((g as u32 * 7919) % n), Some(n - 1)] {
-                    let (d, t) = below.nearest(p, k, 4.0, hint);
+            // In print order, one carry throughout; then in strides, so
+            // that each search starts from a cut found far away.
+            for stride in [1, 37] {
+                let mut carry = Carry::default();
+                for (g, &(k, p)) in points.iter().enumerate().step_by(stride) {
+                    let want = plain(k, p, lookback);
+                    let from_root = carry.from_root;
+                    let same_layer = carry.last.is_some_and(|(_, l)| l == k);
                     assert_eq!(
-                        d, plain,
+                        below.nearest_carried(p, k, 4.0, &mut carry),
+                        want,
+                        "waypoint {g}, look-back {lookback}, stride {stride}"
+                    );
+                    carried += same_layer as usize;
+                    resets += (same_layer && carry.from_root != from_root) as usize;
+                    checked += (want < 4.0) as usize;
+                    skipped += (k > lookback) as usize;
+                }
+            }
+            for (g, &(k, p)) in points.iter().enumerate().step_by(37) {
+                let want = plain(k, p, lookback);
+                for hint in [None, Some(0), Some((g as u32 * 7919) % n), Some(n - 1)] {
+                    let mut carry = Carry {
+                        hint,
+                        ..Carry::default()
+                    };
+                    assert_eq!(
+                        below.nearest_carried(p, k, 4.0, &mut carry),
+                        want,
                         "waypoint {g}, look-back {lookback}, hint {hint:?}"
                     );
-                    if let Some(t) = t {
+                    if let Some(t) = carry.hint.filter(|_| want < 4.0) {
                         let t = &scene.part_tris[t as usize];
-                        assert_eq!(point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2)), d);
+                        assert_eq!(point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2)), want);
                     }
                 }
-                checked += (plain < 4.0) as usize;
-                skipped += (k > lookback) as usize;
             }
         }
         assert!(
-            checked > 30 && skipped > 30,
-            "{checked} over a surface, {skipped} with layers left out"
+            checked > 1000 && skipped > 1000 && carried > 1000 && resets > 3,
+            "{checked} over a surface, {skipped} with layers left out, \
+             {carried} from the last cut, {resets} cuts reset"
         );
     }
 }
