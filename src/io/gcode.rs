@@ -193,6 +193,11 @@ impl Writer<'_> {
                 self.push_axes(&mv.to, mv.offset, tcp);
             }
         }
+        self.end_line();
+    }
+
+    /// End the line with its feed word ([`Writer::feed_word`]).
+    fn end_line(&mut self) {
         self.out.push_str(&self.f_word);
         self.out.push('\n');
     }
@@ -269,8 +274,7 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
     w.feed_word(m.travel.speed, true, || 0.0);
     w.out.push_str("G28 ");
     w.push_axes(&home, [0.0; 2], false);
-    let f = std::mem::take(&mut w.f_word);
-    let _ = writeln!(w.out, "{f}");
+    w.end_line();
     let tool = prog.first_tool.map_or(m.extrusion.tool, |t| t.tool);
     if let Some(t) = prog.first_tool {
         let _ = writeln!(w.out, "T{}\nM109 S{} T{}", t.tool, t.temperature, t.tool);

@@ -46,13 +46,13 @@ pub fn parse_f32(word: &[u8]) -> Option<f32> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
     /// A number as exporters write them: plain, signed, exponent, many digits.
-    fn number(rng: &mut ChaCha8Rng) -> String {
+    pub(crate) fn number(rng: &mut ChaCha8Rng) -> String {
         let x: f64 = rng.random_range(-500.0..500.0);
         match rng.random_range(0..6) {
             0 => format!("{x:.4}"),

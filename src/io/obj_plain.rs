@@ -108,6 +108,7 @@ fn first_use_order(positions: &[[f32; 3]], corners: &[u32]) -> Option<Mesh> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::io::number::tests::number;
     use rand::{Rng, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
@@ -119,19 +120,6 @@ mod tests {
         let bits =
             |m: &Mesh| -> Vec<u32> { m.vertices.iter().flatten().map(|x| x.to_bits()).collect() };
         bits(a) == bits(b) && a.triangles == b.triangles
-    }
-
-    /// A number as exporters write them: plain, signed, exponent, many digits.
-    fn number(rng: &mut ChaCha8Rng) -> String {
-        let x: f64 = rng.random_range(-500.0..500.0);
-        match rng.random_range(0..6) {
-            0 => format!("{x:.4}"),
-            1 => format!("{x}"),
-            2 => format!("{x:e}"),
-            3 => format!("{}", x.round() as i64),
-            4 => format!("{:.9}", x / 1e3),
-            _ => format!("+{:.2}", x.abs()),
-        }
     }
 
     /// A random plain OBJ: unused vertices, faces before the vertices they
