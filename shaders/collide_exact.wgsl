@@ -9,12 +9,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let pair = candidates[k];
-    if atomicLoad(&results[pair.x]) != 0u {
+    if (atomicLoad(&results[pair.x]) & RESULT_HIT) != 0u {
         return; // Already colliding.
     }
     let q = queries[pair.x];
     let h = head_tri(q, part_tri(pair.y));
     if tri_hits_exact(h.a, h.b, h.c, h.margin) {
-        atomicOr(&results[pair.x], 1u);
+        atomicOr(&results[pair.x], RESULT_HIT);
     }
 }

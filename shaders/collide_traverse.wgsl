@@ -4,6 +4,15 @@
 // candidate list for collide_exact. Splitting the work this way keeps each
 // kernel's loops un-nested, which lavapipe needs to compile them correctly,
 // and spreads the exact tests evenly over the GPU's threads.
+//
+// The list is shared by the batch and may fill. The counter only grows,
+// so once one append of a query fails every later one does: the pairs a
+// query handed over are the first ones of its walk order. It records how
+// many (the result word, RESULT_STORED_SHIFT) and that some are missing
+// (RESULT_INCOMPLETE). A resumed pass (params.resume) walks again only
+// the queries still incomplete and undecided, and appends the pairs after
+// those: nothing is tested twice and no batch is redone. Mirrored by
+// src/collide/cpu/traverse.rs.
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -11,11 +20,24 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if qi >= params.query_count {
         return;
     }
+    var handed = 0u;
+    if params.resume != 0u {
+        let word = atomicLoad(&results[qi]);
+        if (word & RESULT_INCOMPLETE) == 0u || (word & RESULT_HIT) != 0u {
+            return;
+        }
+        handed = word >> RESULT_STORED_SHIFT;
+    }
     let q = queries[qi];
     var stack: array<u32, STACK_SIZE>;
     var sp = 1u;
     stack[0] = 0u;
     var hit = false;
+    // Undecided pairs met so far, in walk order; those below `handed` were
+    // tested in an earlier pass.
+    var met = 0u;
+    var stored = handed;
+    var full = false;
     while sp > 0u && !hit {
         sp -= 1u;
         let node = part_node(stack[sp]);
@@ -36,10 +58,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                             if h.cls < 0 {
                                 hit = true;
                             } else if h.cls == 0 {
-                                let k = atomicAdd(&control.count, 1u);
-                                if k < params.capacity {
-                                    candidates[k] = vec2<u32>(qi, t);
+                                if met >= handed && !full {
+                                    let k = atomicAdd(&control.count, 1u);
+                                    if k < params.capacity {
+                                        candidates[k] = vec2<u32>(qi, t);
+                                        stored += 1u;
+                                    } else {
+                                        full = true;
+                                    }
                                 }
+                                met += 1u;
                             }
                         }
                     }
@@ -52,6 +80,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
     }
     if hit {
-        atomicStore(&results[qi], 1u);
+        atomicStore(&results[qi], RESULT_HIT);
+    } else {
+        atomicStore(&results[qi], (stored << RESULT_STORED_SHIFT) | select(0u, RESULT_INCOMPLETE, full));
     }
 }

@@ -125,6 +125,39 @@ fn random_scenes_sloped_margins() {
     );
 }
 
+/// The two kernels' CPU mirrors together — the walk's hit or any of the
+/// pairs it hands over hitting by the exact tests — give the cpu
+/// evaluator's verdict, query by query, at every margin and slope: the
+/// gpu backend's split into passes decides what the one walk decides.
+#[test]
+fn the_kernel_mirrors_together_give_the_evaluators_verdicts() {
+    use maamplan::collide::cpu::{exact, query_hits, traverse, SceneView};
+    for seed in 40..43u64 {
+        let mut r = rng(seed);
+        let scene = star_scene(&mut r, 11, 3.0, [-0.8, 0.6]);
+        let view = SceneView::new(&scene);
+        let base = random_queries(&mut r, &scene, 400);
+        let (mut by_walk, mut by_pairs, mut free) = (0, 0, 0);
+        for (margin, slope) in MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED) {
+            for q in with_slope(&base, margin, slope) {
+                let q = q.to_gpu();
+                let w = traverse::walk(&view, &q);
+                let pairs = w.candidates.iter().any(|&t| exact::pair_hits(&view, &q, t));
+                assert_eq!(
+                    w.hit || pairs,
+                    query_hits(&view, &q),
+                    "seed {seed}, margin {margin} + {slope} per mm"
+                );
+                by_walk += w.hit as usize;
+                by_pairs += (!w.hit && pairs) as usize;
+                free += !(w.hit || pairs) as usize;
+            }
+        }
+        eprintln!("seed {seed}: {by_walk} decided by the walk, {by_pairs} by the exact tests, {free} free");
+        assert!(by_walk > 50 && by_pairs > 50 && free > 50);
+    }
+}
+
 #[test]
 fn verdicts_flip_at_each_poses_own_distance() {
     for seed in 20..23u64 {

@@ -63,6 +63,7 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
             GpuOptions {
                 max_binding_bytes: Some(cap),
                 batch: Some(256),
+                capacity: None,
             },
         ) else {
             return;
@@ -227,7 +228,7 @@ fn synthetic_part_larger_than_one_binding() {
         &scene,
         GpuOptions {
             max_binding_bytes: Some(128 << 20),
-            batch: None,
+            ..GpuOptions::default()
         },
     ) else {
         return;
@@ -317,4 +318,175 @@ fn simulate_gives_the_same_verdicts_on_gpu_and_cpu() {
     assert_eq!(on_gpu, on_cpu, "line verdicts differ between gpu and cpu");
     let hits = on_cpu.iter().filter(|v| **v == Some(true)).count();
     assert!(hits >= 2, "{hits} colliding lines");
+}
+
+/// A batch whose candidate list fills resumes the walks that lost pairs,
+/// each from the pair after the last it handed over: the verdicts are the
+/// ones a list large enough for everything gives (and the cpu's), no batch
+/// is submitted twice, and no pair is tested twice (no more exact tests
+/// than with the large list, which takes every pair of every walk).
+#[test]
+fn full_candidate_lists_resume_the_walks_and_redo_nothing() {
+    let mut r = rng(130);
+    let scene = star_scene(&mut r, 9, 2.5, [0.6, -0.4]);
+    let base = random_queries(&mut r, &scene, 600);
+    let queries = with_slope(&base, 0.05, 0.02);
+    let with = |capacity: u32| {
+        gpu(
+            &scene,
+            GpuOptions {
+                batch: Some(256),
+                capacity: Some(capacity),
+                ..GpuOptions::default()
+            },
+        )
+    };
+    let (Some(roomy), Some(tight)) = (with(1 << 20), with(16)) else {
+        return;
+    };
+    let want = roomy.evaluate(&queries).unwrap();
+    let got = tight.evaluate(&queries).unwrap();
+    assert!(got == want, "a full list changed verdicts");
+    let cpu = CpuBackend::new(&scene).evaluate(&queries).unwrap();
+    near_contacts_only(&scene, &queries, &cpu, &got, "full lists, gpu vs cpu");
+    let (rs, ts) = (roomy.stats(), tight.stats());
+    eprintln!("{rs}\n{ts}");
+    assert_eq!(rs.full_batches, 0, "{rs}");
+    assert!(ts.full_batches > 0 && ts.resumed_queries > 0, "{ts}");
+    assert_eq!(
+        (ts.batches, ts.queries),
+        (rs.batches, rs.queries),
+        "a batch was redone"
+    );
+    assert!(
+        ts.candidates <= rs.candidates,
+        "pairs tested twice: {ts} / {rs}"
+    );
+    assert!(ts.candidates > 16 * ts.batches, "{ts}");
+}
+
+/// Random scenes at every margin and slope, and simple_curve's tilted
+/// poses: what `collide_traverse` hands over per query (hit, and its
+/// undecided triangles in walk order) is what its mirror
+/// `collide::cpu::traverse::walk` lists, query by query.
+#[test]
+fn the_walk_kernel_lists_what_its_cpu_mirror_lists() {
+    use maamplan::collide::cpu::{traverse, SceneView};
+    let mut cases: Vec<(Scene, Vec<Query>, String)> = Vec::new();
+    for seed in 0..3u64 {
+        let mut r = rng(140 + seed);
+        let scene = star_scene(&mut r, 9, 2.5, [1.0, -0.5]);
+        let base = random_queries(&mut r, &scene, 400);
+        let mut queries = Vec::new();
+        for (margin, slope) in MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED) {
+            queries.extend(with_slope(&base, margin, slope));
+        }
+        cases.push((scene, queries, format!("seed {seed}")));
+    }
+    let (_, sc) = simple_curve();
+    let tilted = tilted_queries(&sc.waypoint_queries, 4_000, 11);
+    let mut queries = with_margin(&tilted, 0.05);
+    queries.extend(with_slope(&tilted, 0.05, 0.02));
+    cases.push((sc, queries, "simple_curve tilted".into()));
+    for (scene, queries, what) in &cases {
+        let Some(g) = gpu(
+            scene,
+            GpuOptions {
+                batch: Some(4096),
+                capacity: Some(1 << 22),
+                ..GpuOptions::default()
+            },
+        ) else {
+            return;
+        };
+        let view = SceneView::new(scene);
+        let (mut pairs, mut hits, mut differ) = (0, 0, Vec::new());
+        for chunk in queries.chunks(4096) {
+            let got = g.walks(chunk).unwrap();
+            for (q, w) in chunk.iter().zip(got) {
+                let want = traverse::walk(&view, &q.to_gpu());
+                pairs += want.candidates.len();
+                hits += want.hit as usize;
+                if w != want {
+                    differ.push((
+                        q.margin,
+                        want.hit,
+                        w.hit,
+                        want.candidates.len(),
+                        w.candidates.len(),
+                    ));
+                }
+            }
+        }
+        eprintln!(
+            "{what}: {} queries, {hits} hit by the walk, {pairs} pairs",
+            queries.len()
+        );
+        assert!(
+            differ.is_empty(),
+            "{what}: {} walks differ: {:?}",
+            differ.len(),
+            &differ[..differ.len().min(10)]
+        );
+        assert!(
+            hits > 0 && pairs > queries.len(),
+            "{what}: a walk with nothing to compare"
+        );
+    }
+}
+
+/// The pairs those walks hand over, each through `collide_exact` alone
+/// and through its mirror `collide::cpu::exact::pair_hits`: the same
+/// verdict, pair by pair, at every margin (crossing, nearness within the
+/// margin, and containment all occur).
+#[test]
+fn the_exact_kernel_decides_each_pair_as_its_cpu_mirror_does() {
+    use maamplan::collide::cpu::{exact, traverse, SceneView};
+    for seed in 0..3u64 {
+        let mut r = rng(150 + seed);
+        let scene = star_scene(&mut r, 9, 2.5, [-0.7, 0.9]);
+        let view = SceneView::new(&scene);
+        let base = random_queries(&mut r, &scene, 300);
+        let mut pairs: Vec<(Query, u32)> = Vec::new();
+        for (margin, slope) in MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED) {
+            for q in with_slope(&base, margin, slope) {
+                let w = traverse::walk(&view, &q.to_gpu());
+                pairs.extend(w.candidates.iter().map(|&t| (q, t)));
+            }
+        }
+        let Some(g) = gpu(
+            &scene,
+            GpuOptions {
+                batch: Some(8192),
+                capacity: Some(8192),
+                ..GpuOptions::default()
+            },
+        ) else {
+            return;
+        };
+        let mut differ = Vec::new();
+        let mut hits = 0;
+        for chunk in pairs.chunks(8192) {
+            let got = g.exact_pairs(chunk).unwrap();
+            for ((q, t), h) in chunk.iter().zip(got) {
+                let want = exact::pair_hits(&view, &q.to_gpu(), *t);
+                hits += want as usize;
+                if h != want {
+                    differ.push((q.margin, q.slope, *t, want));
+                }
+            }
+        }
+        eprintln!("seed {seed}: {} pairs, {hits} hit", pairs.len());
+        assert!(
+            differ.is_empty(),
+            "seed {seed}: {} pairs differ: {:?}",
+            differ.len(),
+            &differ[..differ.len().min(10)]
+        );
+        assert!(
+            hits > 0 && hits < pairs.len(),
+            "seed {seed}: {hits} of {} pairs hit",
+            pairs.len()
+        );
+    }
 }

@@ -2,7 +2,7 @@
 //! WGSL structs have the sizes and field offsets of their Rust twins.
 
 use maamplan::collide::gpu::shaders::{ALL, COLLIDE_TRAVERSE};
-use maamplan::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
+use maamplan::scene::{GpuHeadParams, GpuNode, GpuParams, GpuPartNode, GpuQuery, GpuTriangle};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 #[test]
@@ -36,6 +36,10 @@ fn shared_constants_match_rust() {
         maamplan::scene::gpu_types::STACK_SIZE
     );
     assert_eq!(value("SUPPORT_SIDE"), maamplan::scene::slab::SUPPORT_SIDE);
+    use maamplan::scene::gpu_types::{RESULT_HIT, RESULT_INCOMPLETE, RESULT_STORED_SHIFT};
+    assert_eq!(value("RESULT_HIT"), RESULT_HIT);
+    assert_eq!(value("RESULT_INCOMPLETE"), RESULT_INCOMPLETE);
+    assert_eq!(value("RESULT_STORED_SHIFT"), RESULT_STORED_SHIFT);
 }
 
 #[test]
@@ -61,6 +65,7 @@ fn struct_layouts_match_rust() {
         std::mem::size_of::<GpuPartNode>()
     );
     assert_eq!(size("Query") as usize, std::mem::size_of::<GpuQuery>());
+    assert_eq!(size("Params") as usize, std::mem::size_of::<GpuParams>());
     assert_eq!(
         size("HeadParams") as usize,
         std::mem::size_of::<GpuHeadParams>()
@@ -134,6 +139,19 @@ fn struct_layouts_match_rust() {
     let base = &q as *const _ as usize;
     assert_eq!(&q.cutoff as *const _ as usize - base, 48);
     assert_eq!(&q.margin as *const _ as usize - base, 52);
+    // The batch's pass (first walk or resumed), which collide_traverse reads.
+    let (_, params) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some("Params"))
+        .unwrap();
+    let naga::TypeInner::Struct { members, .. } = &params.inner else {
+        panic!("Params is a struct")
+    };
+    let resume = members.iter().find(|m| m.name.as_deref() == Some("resume"));
+    assert_eq!(resume.map(|m| m.offset), Some(16));
+    let g = GpuParams::default();
+    assert_eq!(&g.resume as *const _ as usize - &g as *const _ as usize, 16);
     // And the Rust side, by construction of a value.
     let p = GpuHeadParams::default();
     let base = &p as *const _ as usize;

@@ -10,7 +10,20 @@ struct Params {
     query_count: u32,
     // Capacity of the candidate list.
     capacity: u32,
+    // 0: the batch's first walk; 1: a resumed walk (collide_traverse).
+    resume: u32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
+
+// The per-query result word (src/scene/gpu_types.rs): bit 0 the query
+// collides, bit 1 some of its candidates found the list full, the bits
+// above RESULT_STORED_SHIFT how many of its candidates (in walk order)
+// have been handed to collide_exact.
+const RESULT_HIT: u32 = 1u;
+const RESULT_INCOMPLETE: u32 = 2u;
+const RESULT_STORED_SHIFT: u32 = 2u;
 
 // Candidate counter, then the indirect dispatch size of collide_exact.
 struct Control {

@@ -98,6 +98,9 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 a.backends[0].name()
             )),
         );
+        if let Some(line) = backend.summary() {
+            println!("          {line}");
+        }
         results.push(json!({
             "backend": backend.name(),
             "poses_per_second": pps,

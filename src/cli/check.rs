@@ -150,6 +150,9 @@ pub fn run(a: CheckArgs) -> Result<()> {
             scene.tol,
             prover.queries()
         );
+        if let Some(line) = backend.summary() {
+            println!("{line}");
+        }
     }
     if !job.flipped_layers.is_empty() {
         println!(

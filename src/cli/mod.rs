@@ -256,14 +256,16 @@ pub fn progress(len: u64, what: &str) -> indicatif::ProgressBar {
     pb
 }
 
-/// Evaluate in chunks so the progress bar moves.
+/// Evaluate in chunks so the progress bar moves, each as large as the
+/// backend works best with ([`Backend::batch_hint`]: whole batches for the
+/// gpu).
 pub fn evaluate_with_progress(
     backend: &dyn Backend,
     queries: &[maamplan::scene::Query],
     pb: &indicatif::ProgressBar,
 ) -> Result<Vec<bool>> {
     let mut out = Vec::with_capacity(queries.len());
-    for chunk in queries.chunks(16384) {
+    for chunk in queries.chunks(backend.batch_hint()) {
         out.extend(backend.evaluate(chunk)?);
         pb.inc(chunk.len() as u64);
     }

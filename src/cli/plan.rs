@@ -220,6 +220,9 @@ pub fn run(a: PlanArgs) -> Result<()> {
         &opts,
         &mut |e| show.on(e),
     )?;
+    if let Some(line) = backend.summary() {
+        show.note(&line);
+    }
 
     let layer_name = |l: usize| job.toolpath.layers[l].name.clone();
     let skipped: Vec<serde_json::Value> = p

@@ -130,6 +130,9 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         Some(&tick),
     )?;
     show.stage_line("check", t2.elapsed().as_secs_f64(), Some(queries));
+    if let Some(line) = backend.summary() {
+        show.note(&line);
+    }
 
     let t3 = Instant::now();
     let sim = simulate::report(&machine, &moves, &timeline, &collides, queries, margin);

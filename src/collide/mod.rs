@@ -36,6 +36,16 @@ pub trait Backend: Sync {
     /// several threads at once (the planner measures the input beside its
     /// own stages); each call's verdicts are its own.
     fn evaluate(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError>;
+    /// Queries per call that keep the backend busiest: callers that split
+    /// their work (to show progress) hand it over in multiples of this.
+    fn batch_hint(&self) -> usize {
+        16_384
+    }
+    /// One line on the backend's own work so far, for `-v` (the gpu
+    /// backend: batches, exact tests, candidate lists that filled).
+    fn summary(&self) -> Option<String> {
+        None
+    }
 }
 
 /// Reject non-finite poses and negative or non-finite margins before any

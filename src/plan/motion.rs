@@ -395,7 +395,9 @@ impl Clearance {
 pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
 /// Queries per backend call when a [`Ticker`] listens: large enough to
-/// keep a batch backend busy, small enough for a progress bar to move.
+/// keep a batch backend busy (or the backend's own
+/// [`Backend::batch_hint`], when larger), small enough for a progress bar
+/// to move.
 const TICK_BATCH: usize = 1 << 16;
 
 /// Per-sample state of a move being proven: parameter, largest level it
@@ -457,7 +459,7 @@ impl<'a> Prover<'a> {
             return self.backend.evaluate(q);
         };
         let mut out = Vec::with_capacity(q.len());
-        for chunk in q.chunks(TICK_BATCH) {
+        for chunk in q.chunks(TICK_BATCH.max(self.backend.batch_hint())) {
             out.extend(self.backend.evaluate(chunk)?);
             tick(out.len() as u64, q.len() as u64);
         }

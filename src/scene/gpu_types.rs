@@ -187,6 +187,38 @@ pub struct GpuHeadParams {
     pub _pad: u32,
 }
 
+/// Per-batch scalars of the `collide_*` kernels (`Params` in
+/// `shaders/shared/collide_common.wgsl`), 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuParams {
+    /// Elements per part-node binding (a scene larger than one storage
+    /// binding is split across several).
+    pub nodes_per_chunk: u32,
+    /// Elements per part-triangle binding.
+    pub tris_per_chunk: u32,
+    /// Queries in the batch.
+    pub query_count: u32,
+    /// Slots of the candidate list.
+    pub capacity: u32,
+    /// 0: the batch's first walk; 1: a resumed walk, only for the queries
+    /// whose candidates did not all fit ([`RESULT_INCOMPLETE`]), handing
+    /// over the candidates after the ones already tested.
+    pub resume: u32,
+    /// Padding to 16-byte multiples (uniform layout).
+    pub _pad: [u32; 3],
+}
+
+/// The batch's per-query result word: the query collides.
+pub const RESULT_HIT: u32 = 1;
+/// The result word: some of the query's candidates found the list full
+/// (its walk is resumed in the next pass of the batch).
+pub const RESULT_INCOMPLETE: u32 = 2;
+/// The result word above these bits: how many of the query's candidates,
+/// in walk order, have been handed to the exact pass.
+pub const RESULT_STORED_SHIFT: u32 = 2;
+
+const _: () = assert!(std::mem::size_of::<GpuParams>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuPartNode>() == 32);

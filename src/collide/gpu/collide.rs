@@ -10,14 +10,20 @@
 //! have margin 0, so those cost what they did before margins existed on
 //! lavapipe too (it runs a branch's body even when no invocation takes
 //! it). Two sets of per-batch buffers alternate, so the next batch
-//! computes while the previous one is read back. A batch whose candidates
-//! overflow the list is redone in halves.
+//! computes while the previous one is read back. When a batch's
+//! candidates do not all fit the list, the queries that lost some are
+//! walked again (`resume`): each hands over the pairs after the ones it
+//! had stored, so no pair is tested twice and no batch is redone
+//! ([`GpuStats`] counts it).
 
+use super::super::cpu::traverse::Walk;
 use super::super::{check_finite, Backend, CollideError, Query};
 use super::context::GpuContext;
 use super::shaders::{COLLIDE_EXACT, COLLIDE_PREPARE, COLLIDE_TRAVERSE};
-use crate::scene::{GpuPartNode, GpuQuery, GpuTriangle, Scene};
-use bytemuck::{Pod, Zeroable};
+use crate::scene::gpu_types::{RESULT_HIT, RESULT_INCOMPLETE};
+use crate::scene::{GpuParams, GpuPartNode, GpuQuery, GpuTriangle, Scene};
+use bytemuck::Pod;
+use std::sync::atomic::{AtomicU64, Ordering};
 use wgpu::util::DeviceExt;
 
 /// Bindings the part nodes and triangles may be split across (keep in sync
@@ -38,15 +44,54 @@ pub struct GpuOptions {
     pub max_binding_bytes: Option<u64>,
     /// Queries per dispatch (default: 65,536, within the device's limits).
     pub batch: Option<usize>,
+    /// Slots of the candidate list per batch (default: 64 per query, within
+    /// the device's limits). Tests lower it to make lists fill.
+    pub capacity: Option<u32>,
 }
 
-#[repr(C)]
-#[derive(Clone, Copy, Pod, Zeroable)]
-struct Params {
-    nodes_per_chunk: u32,
-    tris_per_chunk: u32,
-    query_count: u32,
-    capacity: u32,
+/// What the backend has done since it was built: how often a batch's
+/// candidate list filled and what that cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GpuStats {
+    /// Batches submitted (each: one walk per query, one exact test per
+    /// candidate).
+    pub batches: u64,
+    /// Queries evaluated.
+    pub queries: u64,
+    /// (query, triangle) pairs handed to the exact tests.
+    pub candidates: u64,
+    /// Batches whose candidate list filled.
+    pub full_batches: u64,
+    /// Further passes those needed (walks of the incomplete queries only).
+    pub resumed_passes: u64,
+    /// Query walks those passes made.
+    pub resumed_queries: u64,
+}
+
+impl std::fmt::Display for GpuStats {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "gpu: {} queries in {} batches, {} exact tests; candidate list full in {} batch(es): {} query walk(s) resumed in {} pass(es), no batch redone",
+            self.queries,
+            self.batches,
+            self.candidates,
+            self.full_batches,
+            self.resumed_queries,
+            self.resumed_passes
+        )
+    }
+}
+
+/// [`GpuStats`] as the backend counts it, from several threads.
+#[derive(Default)]
+struct Counters {
+    batches: AtomicU64,
+    queries: AtomicU64,
+    candidates: AtomicU64,
+    full_batches: AtomicU64,
+    resumed_passes: AtomicU64,
+    resumed_queries: AtomicU64,
 }
 
 /// One set of per-batch buffers.
@@ -54,6 +99,8 @@ struct BatchSet {
     params: wgpu::Buffer,
     queries: wgpu::Buffer,
     results: wgpu::Buffer,
+    /// The (query, triangle) pairs the walk hands to the exact tests.
+    candidates: wgpu::Buffer,
     control: wgpu::Buffer,
     indirect: wgpu::Buffer,
     readback: wgpu::Buffer,
@@ -76,6 +123,7 @@ pub struct GpuBackend {
     busy: std::sync::Mutex<()>,
     batch: usize,
     capacity: u32,
+    counters: Counters,
     nodes_per_chunk: u32,
     tris_per_chunk: u32,
     /// Scene bytes resident on the device.
@@ -221,7 +269,9 @@ impl GpuBackend {
             .min(binding / query_size)
             .min(max_groups * WORKGROUP as u64 / CANDIDATES_PER_QUERY)
             .max(1);
-        let capacity = (batch * CANDIDATES_PER_QUERY)
+        let capacity = opts
+            .capacity
+            .map_or(batch * CANDIDATES_PER_QUERY, |c| c.max(1) as u64)
             .min(binding / 8)
             .min(max_groups * WORKGROUP as u64);
         let batch = batch as usize;
@@ -237,7 +287,7 @@ impl GpuBackend {
             use wgpu::BufferUsages as U;
             let params = buf(
                 "params",
-                std::mem::size_of::<Params>() as u64,
+                std::mem::size_of::<GpuParams>() as u64,
                 U::UNIFORM | U::COPY_DST,
             );
             let queries = buf(
@@ -250,7 +300,13 @@ impl GpuBackend {
                 batch as u64 * 4,
                 U::STORAGE | U::COPY_SRC | U::COPY_DST,
             );
-            let candidates = buf("candidates", capacity * 8, U::STORAGE);
+            // (Copied only by the kernel-by-kernel tests, `walks` and
+            // `exact_pairs`.)
+            let candidates = buf(
+                "candidates",
+                capacity * 8,
+                U::STORAGE | U::COPY_SRC | U::COPY_DST,
+            );
             let control = buf("control", 16, U::STORAGE | U::COPY_SRC | U::COPY_DST);
             // Not in the bind group: a buffer bound as storage cannot also
             // drive an indirect dispatch in the same pass.
@@ -282,6 +338,7 @@ impl GpuBackend {
                 params,
                 queries,
                 results,
+                candidates,
                 control,
                 indirect,
                 readback,
@@ -298,6 +355,7 @@ impl GpuBackend {
             busy: std::sync::Mutex::new(()),
             batch,
             capacity: capacity as u32,
+            counters: Counters::default(),
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
             tris_per_chunk: tris_per_chunk.min(u32::MAX as usize) as u32,
             scene_bytes,
@@ -319,22 +377,69 @@ impl GpuBackend {
         self.batch
     }
 
+    /// What the backend has done so far.
+    pub fn stats(&self) -> GpuStats {
+        let c = &self.counters;
+        let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
+        GpuStats {
+            batches: get(&c.batches),
+            queries: get(&c.queries),
+            candidates: get(&c.candidates),
+            full_batches: get(&c.full_batches),
+            resumed_passes: get(&c.resumed_passes),
+            resumed_queries: get(&c.resumed_queries),
+        }
+    }
+
+    fn params(&self, n: usize, resume: bool) -> GpuParams {
+        GpuParams {
+            nodes_per_chunk: self.nodes_per_chunk,
+            tris_per_chunk: self.tris_per_chunk,
+            query_count: n as u32,
+            capacity: self.capacity,
+            resume: resume as u32,
+            _pad: [0; 3],
+        }
+    }
+
     /// Encode and submit one batch on buffer set `s`.
     fn submit(&self, s: usize, batch: &[Query]) -> wgpu::SubmissionIndex {
         let set = &self.sets[s];
         let gpu: Vec<GpuQuery> = batch.iter().map(|q| q.to_gpu()).collect();
-        let n = batch.len() as u64;
-        let params = Params {
-            nodes_per_chunk: self.nodes_per_chunk,
-            tris_per_chunk: self.tris_per_chunk,
-            query_count: batch.len() as u32,
-            capacity: self.capacity,
-        };
         let q = &self.ctx.queue;
-        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&params));
+        q.write_buffer(
+            &set.params,
+            0,
+            bytemuck::bytes_of(&self.params(batch.len(), false)),
+        );
         q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        enc.clear_buffer(&set.results, 0, Some(n * 4));
+        enc.clear_buffer(&set.results, 0, Some(batch.len() as u64 * 4));
+        let margins = batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
+        self.encode_passes(&mut enc, set, batch.len(), margins);
+        q.submit([enc.finish()])
+    }
+
+    /// Resume the walks of set `s`'s batch of `n` queries whose candidates
+    /// did not all fit (its queries and result words are still in place).
+    fn submit_resume(&self, s: usize, n: usize, margins: bool) -> wgpu::SubmissionIndex {
+        let set = &self.sets[s];
+        let q = &self.ctx.queue;
+        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&self.params(n, true)));
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_passes(&mut enc, set, n, margins);
+        q.submit([enc.finish()])
+    }
+
+    /// The three dispatches of a pass over `n` queries, then the copies of
+    /// their result words and the candidate counter to the readback buffer.
+    fn encode_passes(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        set: &BatchSet,
+        n: usize,
+        margins: bool,
+    ) {
         enc.clear_buffer(&set.control, 0, None);
         {
             let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -343,7 +448,7 @@ impl GpuBackend {
             });
             pass.set_bind_group(0, &set.bind_group, &[]);
             pass.set_pipeline(&self.traverse);
-            pass.dispatch_workgroups((batch.len() as u32).div_ceil(WORKGROUP), 1, 1);
+            pass.dispatch_workgroups((n as u32).div_ceil(WORKGROUP), 1, 1);
             pass.set_pipeline(&self.prepare);
             pass.dispatch_workgroups(1, 1, 1);
         }
@@ -354,27 +459,26 @@ impl GpuBackend {
                 timestamp_writes: None,
             });
             pass.set_bind_group(0, &set.bind_group, &[]);
-            if batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0) {
-                pass.set_pipeline(&self.exact);
+            pass.set_pipeline(if margins {
+                &self.exact
             } else {
-                pass.set_pipeline(&self.exact_touch);
-            }
+                &self.exact_touch
+            });
             pass.dispatch_workgroups_indirect(&set.indirect, 0);
         }
+        let n = n as u64;
         enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n * 4);
         enc.copy_buffer_to_buffer(&set.control, 0, &set.readback, self.batch as u64 * 4, 4);
-        q.submit([enc.finish()])
     }
 
-    /// Wait for set `s`'s batch of `n` queries; append its verdicts and say
-    /// whether its candidate list overflowed (then they are incomplete).
+    /// Wait for set `s`'s pass over `n` queries; its result words and the
+    /// number of appends the candidate list was asked for.
     fn read(
         &self,
         s: usize,
         n: usize,
         index: wgpu::SubmissionIndex,
-        out: &mut Vec<bool>,
-    ) -> Result<bool, CollideError> {
+    ) -> Result<(Vec<u32>, u32), CollideError> {
         let set = &self.sets[s];
         let slice = set.readback.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
@@ -392,54 +496,236 @@ impl GpuBackend {
         rx.recv()
             .map_err(|e| failed(e.to_string()))?
             .map_err(|e| failed(e.to_string()))?;
-        let overflow = {
+        let words = {
             let data = slice
                 .get_mapped_range()
                 .map_err(|e| failed(e.to_string()))?;
             let words: &[u32] = bytemuck::cast_slice(&data);
-            out.extend(words[..n].iter().map(|&w| w != 0));
-            words[self.batch] > self.capacity
+            (words[..n].to_vec(), words[self.batch])
         };
         set.readback.unmap();
-        Ok(overflow)
+        Ok(words)
+    }
+
+    /// Finish set `s`'s batch of `batch` queries (submitted as `index`):
+    /// read it, resume the walks its full candidate list cut short until
+    /// every query is decided, and append the verdicts to `out`.
+    fn finish(
+        &self,
+        s: usize,
+        batch: &[Query],
+        index: wgpu::SubmissionIndex,
+        out: &mut Vec<bool>,
+    ) -> Result<(), CollideError> {
+        let c = &self.counters;
+        let n = batch.len();
+        let (mut words, mut asked) = self.read(s, n, index)?;
+        c.batches.fetch_add(1, Ordering::Relaxed);
+        c.queries.fetch_add(n as u64, Ordering::Relaxed);
+        if asked > self.capacity {
+            c.full_batches.fetch_add(1, Ordering::Relaxed);
+        }
+        let margins = batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
+        loop {
+            c.candidates
+                .fetch_add(asked.min(self.capacity) as u64, Ordering::Relaxed);
+            if asked <= self.capacity {
+                break;
+            }
+            // Each pass stores `capacity` more pairs, so this ends.
+            let waiting = words
+                .iter()
+                .filter(|&&w| w & RESULT_INCOMPLETE != 0 && w & RESULT_HIT == 0)
+                .count();
+            c.resumed_passes.fetch_add(1, Ordering::Relaxed);
+            c.resumed_queries
+                .fetch_add(waiting as u64, Ordering::Relaxed);
+            let index = self.submit_resume(s, n, margins);
+            (words, asked) = self.read(s, n, index)?;
+        }
+        out.extend(words.iter().map(|&w| w & RESULT_HIT != 0));
+        Ok(())
     }
 
     /// Evaluate `queries` in batches of at most `batch`, two in flight.
-    fn run(&self, queries: &[Query], batch: usize) -> Result<Vec<bool>, CollideError> {
+    fn run(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         let mut out = Vec::with_capacity(queries.len());
-        let mut redo = Vec::new();
-        let mut pending: Option<(usize, usize, usize, wgpu::SubmissionIndex)> = None;
-        let mut finish = |p: (usize, usize, usize, wgpu::SubmissionIndex), out: &mut Vec<bool>| {
-            let (s, start, n, index) = p;
-            if self.read(s, n, index, out)? {
-                redo.push(start..start + n);
-            }
-            Ok::<(), CollideError>(())
-        };
-        for (k, chunk) in queries.chunks(batch).enumerate() {
+        let mut pending: Option<(usize, &[Query], wgpu::SubmissionIndex)> = None;
+        for (k, chunk) in queries.chunks(self.batch).enumerate() {
             let s = k % 2;
             let index = self.submit(s, chunk);
-            if let Some(p) = pending.take() {
-                finish(p, &mut out)?;
+            if let Some((ps, pb, pi)) = pending.take() {
+                self.finish(ps, pb, pi, &mut out)?;
             }
-            pending = Some((s, k * batch, chunk.len(), index));
+            pending = Some((s, chunk, index));
         }
-        if let Some(p) = pending {
-            finish(p, &mut out)?;
-        }
-        // Batches whose candidates overflowed: again, in halves.
-        for range in redo {
-            let half = (range.len() / 2).max(1);
-            if half == range.len() {
-                return Err(CollideError::Unavailable(format!(
-                    "one query needs more than {} exact tests: the GPU candidate list is too small",
-                    self.capacity
-                )));
-            }
-            let again = self.run(&queries[range.clone()], half)?;
-            out[range].copy_from_slice(&again);
+        if let Some((ps, pb, pi)) = pending {
+            self.finish(ps, pb, pi, &mut out)?;
         }
         Ok(out)
+    }
+}
+
+/// Each kernel alone, for the differential tests against its CPU mirror
+/// (`collide::cpu::traverse`, `collide::cpu::exact`), pair by pair.
+impl GpuBackend {
+    /// `collide_traverse` alone over at most one batch of `queries`: per
+    /// query, whether the walk found it colliding and its undecided
+    /// triangles in walk order (one invocation appends its pairs in order,
+    /// so the shared list keeps each query's order). Fails when the pairs
+    /// do not fit the candidate list: build the backend with a larger
+    /// [`GpuOptions::capacity`].
+    pub fn walks(&self, queries: &[Query]) -> Result<Vec<Walk>, CollideError> {
+        check_finite(queries)?;
+        self.fits(queries.len())?;
+        let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        let set = &self.sets[0];
+        let n = queries.len();
+        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
+        let q = &self.ctx.queue;
+        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&self.params(n, false)));
+        q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
+        let pairs = self.scratch("walks: pairs", self.capacity as u64 * 8);
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&set.results, 0, Some(n as u64 * 4));
+        enc.clear_buffer(&set.control, 0, None);
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &set.bind_group, &[]);
+            pass.set_pipeline(&self.traverse);
+            pass.dispatch_workgroups((n as u32).div_ceil(WORKGROUP), 1, 1);
+        }
+        enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n as u64 * 4);
+        enc.copy_buffer_to_buffer(&set.control, 0, &set.readback, self.batch as u64 * 4, 4);
+        enc.copy_buffer_to_buffer(&set.candidates, 0, &pairs, 0, self.capacity as u64 * 8);
+        let index = q.submit([enc.finish()]);
+        let (words, asked) = self.read(0, n, index)?;
+        if asked > self.capacity {
+            return Err(CollideError::Unavailable(format!(
+                "walks: {asked} pairs do not fit the candidate list of {}",
+                self.capacity
+            )));
+        }
+        let list: Vec<[u32; 2]> = self
+            .map_words(&pairs, asked as usize * 2)?
+            .chunks(2)
+            .map(|p| [p[0], p[1]])
+            .collect();
+        let mut out: Vec<Walk> = words
+            .iter()
+            .map(|&w| Walk {
+                hit: w & RESULT_HIT != 0,
+                candidates: Vec::new(),
+            })
+            .collect();
+        for [qi, t] in list {
+            out[qi as usize].candidates.push(t);
+        }
+        Ok(out)
+    }
+
+    /// `collide_exact` alone over the given pairs (query, part triangle),
+    /// each as if the walk had handed it over: one verdict per pair.
+    pub fn exact_pairs(&self, pairs: &[(Query, u32)]) -> Result<Vec<bool>, CollideError> {
+        let queries: Vec<Query> = pairs.iter().map(|p| p.0).collect();
+        check_finite(&queries)?;
+        self.fits(pairs.len())?;
+        if pairs.len() > self.capacity as usize {
+            return Err(CollideError::Unavailable(format!(
+                "exact_pairs: {} pairs exceed the candidate list of {}",
+                pairs.len(),
+                self.capacity
+            )));
+        }
+        let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        let set = &self.sets[0];
+        let n = pairs.len();
+        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
+        let list: Vec<[u32; 2]> = pairs
+            .iter()
+            .enumerate()
+            .map(|(k, p)| [k as u32, p.1])
+            .collect();
+        let q = &self.ctx.queue;
+        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&self.params(n, false)));
+        q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
+        if n > 0 {
+            q.write_buffer(&set.candidates, 0, bytemuck::cast_slice(&list));
+        }
+        q.write_buffer(&set.control, 0, bytemuck::cast_slice(&[n as u32, 0, 0, 0]));
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&set.results, 0, Some(n as u64 * 4));
+        {
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &set.bind_group, &[]);
+            pass.set_pipeline(&self.prepare);
+            pass.dispatch_workgroups(1, 1, 1);
+        }
+        enc.copy_buffer_to_buffer(&set.control, 4, &set.indirect, 0, 12);
+        {
+            let margins = queries.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
+            let mut pass = enc.begin_compute_pass(&Default::default());
+            pass.set_bind_group(0, &set.bind_group, &[]);
+            pass.set_pipeline(if margins {
+                &self.exact
+            } else {
+                &self.exact_touch
+            });
+            pass.dispatch_workgroups_indirect(&set.indirect, 0);
+        }
+        enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n as u64 * 4);
+        let index = q.submit([enc.finish()]);
+        let (words, _) = self.read(0, n, index)?;
+        Ok(words.iter().map(|&w| w & RESULT_HIT != 0).collect())
+    }
+
+    /// At most one batch.
+    fn fits(&self, n: usize) -> Result<(), CollideError> {
+        if n > self.batch {
+            return Err(CollideError::Unavailable(format!(
+                "{n} queries exceed one batch of {}",
+                self.batch
+            )));
+        }
+        Ok(())
+    }
+
+    /// A buffer to copy device data into and map.
+    fn scratch(&self, label: &str, size: u64) -> wgpu::Buffer {
+        self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: size.max(4),
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// The first `n` words of a scratch buffer whose copy was submitted.
+    fn map_words(&self, buf: &wgpu::Buffer, n: usize) -> Result<Vec<u32>, CollideError> {
+        let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
+        let slice = buf.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait {
+                submission_index: None,
+                timeout: None,
+            })
+            .map_err(|e| failed(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| failed(e.to_string()))?
+            .map_err(|e| failed(e.to_string()))?;
+        let words = {
+            let data = slice
+                .get_mapped_range()
+                .map_err(|e| failed(e.to_string()))?;
+            bytemuck::cast_slice::<u8, u32>(&data)[..n].to_vec()
+        };
+        buf.unmap();
+        Ok(words)
     }
 }
 
@@ -453,6 +739,16 @@ impl Backend for GpuBackend {
         // A panic elsewhere while holding it leaves the buffers as
         // consistent as any other finished call: the poison is ignored.
         let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
-        self.run(queries, self.batch)
+        self.run(queries)
+    }
+
+    /// Four batches a call: the two buffer sets overlap compute and
+    /// readback within one call, not across calls.
+    fn batch_hint(&self) -> usize {
+        4 * self.batch
+    }
+
+    fn summary(&self) -> Option<String> {
+        Some(self.stats().to_string())
     }
 }

@@ -1,10 +1,14 @@
 //! The `cpu` backend: BVH traversal with distance-grid culling and exact
 //! triangle tests, rayon over the batch, no allocation per query.
 //!
-//! This file is the CPU mirror of the `collide_*` kernels (`shaders/`,
-//! helpers in `shaders/shared/collide_common.wgsl`): each function has a
-//! twin of the same name there, with the same operations in the same order,
-//! so the two backends round identically. Three things are the CPU's own:
+//! This module is the CPU mirror of the `collide_*` kernels (`shaders/`):
+//! the functions here mirror the helpers of
+//! `shaders/shared/collide_common.wgsl`, and each kernel has its twin file,
+//! [`traverse`] (`collide_traverse.wgsl`: the walk, the undecided pairs in
+//! walk order) and [`exact`] (`collide_exact.wgsl`: one pair's exact
+//! tests), tested against the kernels pair by pair (`tests/gpu.rs`).
+//! Each function has a twin of the same name in WGSL, with the same
+//! operations in the same order, so the two backends round identically. Three things are the CPU's own:
 //! [`first_hit`] is the kernels' `query_hits` walk naming the triangle that
 //! decided a hit, each rayon worker first tries the triangles of its
 //! recent hits ([`witness_hits`]), and it walks from the cut of the tree
@@ -36,12 +40,15 @@ use crate::geometry::aabb::{overlaps, point_box_distance, triangle_box_overlap};
 use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::TriPlane;
 use crate::geometry::tri_tri_distance::{plane_separates, tri_tri_closer_than};
-use crate::geometry::{dot, length, sub, vmax, vmin, V3};
+use crate::geometry::{dot, length, vmax, vmin, V3};
 use crate::scene::slab::{oct_decode, support_cell, unpack_snorm2x16};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
 
 pub use crate::scene::gpu_types::STACK_SIZE;
+
+pub mod exact;
+pub mod traverse;
 
 /// Borrowed views of the scene arrays, exactly what the shader binds.
 #[derive(Clone, Copy)]
@@ -419,31 +426,16 @@ pub fn witness_hits(s: &SceneView, q: &GpuQuery, t: u32) -> bool {
     tri.stamp < q.cutoff && tri_hits(s, q, tri)
 }
 
-/// One existing part triangle against the head.
+/// One existing part triangle against the head: the grid and the hull
+/// plane ([`traverse::head_tri`], as the kernel walk classifies it), then,
+/// when they cannot tell, the exact tests (as the exact kernel does).
 #[inline(always)]
 pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
-    let a = to_head(q, tri.v0);
-    let b = to_head(q, tri.v1);
-    let c = to_head(q, tri.v2);
-    // Multiply, not divide: WGSL division is not exactly rounded.
-    const THIRD: f32 = 1.0 / 3.0;
-    let m = [
-        (a[0] + b[0] + c[0]) * THIRD,
-        (a[1] + b[1] + c[1]) * THIRD,
-        (a[2] + b[2] + c[2]) * THIRD,
-    ];
-    let r = length(sub(a, m))
-        .max(length(sub(b, m)))
-        .max(length(sub(c, m)));
-    let margin = triangle_margin(q, a, b, c);
-    let cls = classify(s.head, s.grid, m, r, margin);
-    if cls != 0 {
-        return cls < 0;
+    let h = traverse::head_tri(s, q, tri);
+    if h.cls != 0 {
+        return h.cls < 0;
     }
-    if hull_clear(s.head, s.grid, m, [a, b, c], margin) {
-        return false;
-    }
-    tri_hits_exact(s, a, b, c, margin)
+    tri_hits_exact(s, h.a, h.b, h.c, h.margin)
 }
 
 /// Does the triangle `abc` (head frame, centroid `m`) lie farther than
