@@ -11,8 +11,35 @@
 // many (the result word, RESULT_STORED_SHIFT) and that some are missing
 // (RESULT_INCOMPLETE). A resumed pass (params.resume) walks again only
 // the queries still incomplete and undecided, and appends the pairs after
-// those: nothing is tested twice and no batch is redone. Mirrored by
-// src/collide/cpu/traverse.rs.
+// those: nothing is tested twice and no batch is redone. Children are
+// tested before they are pushed, the nearer to the tip on top (a colliding
+// query meets its hit sooner). Mirrored by src/collide/cpu/traverse.rs.
+
+// A node as the walk sees it: state 1 settled clear (or printed later),
+// -1 wholly inside the head (the query collides), 0 undecided; `near` is
+// how close its sphere comes to the tip (which undecided child goes
+// first).
+struct NodeTest {
+    state: i32,
+    near: f32,
+}
+
+fn test_node(q: Query, i: u32) -> NodeTest {
+    let node = part_node(i);
+    if node.min_stamp >= q.cutoff {
+        return NodeTest(1, 0.0);
+    }
+    let c = to_head(q, node.center);
+    let margin = sphere_margin(q, c, node.radius);
+    let cls = classify(c, node.radius, margin);
+    if cls != 0 {
+        return NodeTest(cls, 0.0);
+    }
+    if slab_clear(q, node, margin) || node_hull_clear(q, node, c, margin) {
+        return NodeTest(1, 0.0);
+    }
+    return NodeTest(0, len3(c) - node.radius);
+}
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -30,9 +57,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let q = queries[qi];
     var stack: array<u32, STACK_SIZE>;
-    var sp = 1u;
-    stack[0] = 0u;
-    var hit = false;
+    var sp = 0u;
+    // Nodes are tested before they are pushed: the stack holds undecided
+    // nodes only, the nearer of two children on top.
+    let root = test_node(q, 0u);
+    var hit = root.state < 0;
+    if root.state == 0 {
+        stack[0] = 0u;
+        sp = 1u;
+    }
     // Undecided pairs met so far, in walk order; those below `handed` were
     // tested in an earlier pass.
     var met = 0u;
@@ -41,41 +74,46 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     while sp > 0u && !hit {
         sp -= 1u;
         let node = part_node(stack[sp]);
-        if node.min_stamp < q.cutoff {
-            let c = to_head(q, node.center);
-            let margin = sphere_margin(q, c, node.radius);
-            let cls = classify(c, node.radius, margin);
-            if cls < 0 {
-                hit = true;
-            } else if cls == 0 && !slab_clear(q, node, margin) && !node_hull_clear(q, node, c, margin) {
-                if is_leaf(node.packed) {
-                    let first = leaf_first(node.packed);
-                    let end = first + leaf_count(node.packed);
-                    for (var t = first; t < end; t++) {
-                        let tri = part_tri(t);
-                        if tri.stamp < q.cutoff {
-                            let h = head_tri(q, tri);
-                            if h.cls < 0 {
-                                hit = true;
-                            } else if h.cls == 0 {
-                                if met >= handed && !full {
-                                    let k = atomicAdd(&control.count, 1u);
-                                    if k < params.capacity {
-                                        candidates[k] = vec2<u32>(qi, t);
-                                        stored += 1u;
-                                    } else {
-                                        full = true;
-                                    }
-                                }
-                                met += 1u;
+        if is_leaf(node.packed) {
+            let first = leaf_first(node.packed);
+            let end = first + leaf_count(node.packed);
+            for (var t = first; t < end; t++) {
+                let tri = part_tri(t);
+                if tri.stamp < q.cutoff {
+                    let h = head_tri(q, tri);
+                    if h.cls < 0 {
+                        hit = true;
+                    } else if h.cls == 0 {
+                        if met >= handed && !full {
+                            let k = atomicAdd(&control.count, 1u);
+                            if k < params.capacity {
+                                candidates[k] = vec2<u32>(qi, t);
+                                stored += 1u;
+                            } else {
+                                full = true;
                             }
                         }
+                        met += 1u;
                     }
-                } else {
-                    stack[sp] = node.packed;
-                    stack[sp + 1u] = node.packed + 1u;
-                    sp += 2u;
                 }
+            }
+        } else {
+            let a = node.packed;
+            let ta = test_node(q, a);
+            let tb = test_node(q, a + 1u);
+            if ta.state < 0 || tb.state < 0 {
+                hit = true;
+            } else if ta.state == 0 && tb.state == 0 {
+                let a_nearer = ta.near <= tb.near;
+                stack[sp] = select(a, a + 1u, a_nearer);
+                stack[sp + 1u] = select(a + 1u, a, a_nearer);
+                sp += 2u;
+            } else if ta.state == 0 {
+                stack[sp] = a;
+                sp += 1u;
+            } else if tb.state == 0 {
+                stack[sp] = a + 1u;
+                sp += 1u;
             }
         }
     }

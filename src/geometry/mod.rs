@@ -38,19 +38,42 @@ pub fn scale(a: V3, s: f32) -> V3 {
     [a[0] * s, a[1] * s, a[2] * s]
 }
 
-/// Dot product, summed left to right: `(x + y) + z`.
-#[inline(always)]
-pub fn dot(a: V3, b: V3) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+#[cfg(test)]
+thread_local! {
+    /// Whether [`madd`] fuses on this thread, as a GPU that contracts
+    /// multiply-adds would (WGSL lets it; Vulkan drivers do): only the
+    /// robustness test of the mirror's verdicts turns it on
+    /// (`collide::cpu`'s tests). Not compiled outside the crate's unit
+    /// tests, so the shipped arithmetic is plain.
+    pub static FUSED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// Cross product.
+/// `a · b + c`: two roundings, as the WGSL mirrors spell it (one under
+/// [`FUSED`] in the crate's unit tests). The multiply-adds of the
+/// collision mirror go through here, so that a test can fuse them all.
+#[inline(always)]
+pub fn madd(a: f32, b: f32, c: f32) -> f32 {
+    #[cfg(test)]
+    if FUSED.with(|f| f.get()) {
+        return a.mul_add(b, c);
+    }
+    a * b + c
+}
+
+/// Dot product, summed left to right: `(x + y) + z` (each addition as
+/// [`madd`]: the same rounding, addition being commutative).
+#[inline(always)]
+pub fn dot(a: V3, b: V3) -> f32 {
+    madd(a[2], b[2], madd(a[1], b[1], a[0] * b[0]))
+}
+
+/// Cross product (each component `x − y` as [`madd`]`(…, −y)`).
 #[inline(always)]
 pub fn cross(a: V3, b: V3) -> V3 {
     [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
+        madd(a[1], b[2], -(a[2] * b[1])),
+        madd(a[2], b[0], -(a[0] * b[2])),
+        madd(a[0], b[1], -(a[1] * b[0])),
     ]
 }
 

@@ -170,10 +170,11 @@ pub fn to_head(q: &GpuQuery, p: V3) -> V3 {
         p[1] - q.rows[1][3],
         p[2] - q.rows[2][3],
     ];
+    let r = &q.rows;
     [
-        q.rows[0][0] * d[0] + q.rows[0][1] * d[1] + q.rows[0][2] * d[2],
-        q.rows[1][0] * d[0] + q.rows[1][1] * d[1] + q.rows[1][2] * d[2],
-        q.rows[2][0] * d[0] + q.rows[2][1] * d[1] + q.rows[2][2] * d[2],
+        dot([r[0][0], r[0][1], r[0][2]], d),
+        dot([r[1][0], r[1][1], r[1][2]], d),
+        dot([r[2][0], r[2][1], r[2][2]], d),
     ]
 }
 
@@ -609,4 +610,94 @@ pub fn point_in_head(s: &SceneView, p: V3) -> bool {
         }
     }
     inside
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::collide::brute::BruteBackend;
+    use crate::collide::sample::tilted_queries;
+    use crate::geometry::FUSED;
+
+    /// `f` with every multiply-add of the mirror fused, on this thread.
+    fn fused<T>(f: impl FnOnce() -> T) -> T {
+        FUSED.with(|x| x.set(true));
+        let out = f();
+        FUSED.with(|x| x.set(false));
+        out
+    }
+
+    /// A GPU may fuse multiply-adds (WGSL allows it; Vulkan drivers do),
+    /// lavapipe does not. The mirror with the multiply-adds of its dot and
+    /// cross products and frame changes fused — the head frame, every
+    /// plane, grid cell, slab, hull-plane and Möller value derived from
+    /// them — flips verdicts only at near-contacts: wherever it disagrees
+    /// with the plain arithmetic, the nearest existing triangle is within
+    /// 1e-3 mm of the margin (brute force in f64). Asked on the default
+    /// job's tilted poses at plain margins, and at each pose's own
+    /// clearance (the margin set to its distance: a contact rounding
+    /// decides).
+    #[test]
+    fn fused_multiply_adds_flip_verdicts_only_at_near_contacts() {
+        let scene = crate::default_job::scene();
+        let view = SceneView::new(&scene);
+        let brute = BruteBackend::new(&scene);
+        let poses = tilted_queries(&scene.waypoint_queries, 1_200, 3);
+        let mut queries: Vec<Query> = [0.0, 0.05, 0.3]
+            .iter()
+            .flat_map(|&margin| poses.iter().map(move |q| Query { margin, ..*q }))
+            .collect();
+        let at_contact: Vec<Query> = poses
+            .iter()
+            .filter_map(|q| {
+                let d = brute.margin_slack(&Query { margin: 0.0, ..*q }, 2.0);
+                (d > 0.0 && d < 2.0).then_some(Query {
+                    margin: d as f32,
+                    ..*q
+                })
+            })
+            .collect();
+        assert!(
+            at_contact.len() > 100,
+            "{} poses near the part",
+            at_contact.len()
+        );
+        queries.extend(&at_contact);
+        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
+        let plain: Vec<bool> = gpu.iter().map(|q| query_hits(&view, q)).collect();
+        let fma: Vec<bool> = fused(|| gpu.iter().map(|q| query_hits(&view, q)).collect());
+        // The fused arithmetic is in force: frame changes round otherwise.
+        let probe = view.tris[view.tris.len() / 2].v0;
+        let framed: Vec<V3> = gpu.iter().map(|q| to_head(q, probe)).collect();
+        let framed_fma: Vec<V3> = fused(|| gpu.iter().map(|q| to_head(q, probe)).collect());
+        let moved = framed
+            .iter()
+            .zip(&framed_fma)
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(
+            moved * 4 > gpu.len(),
+            "fused frame changes differ in {moved} of {}",
+            gpu.len()
+        );
+        let flips: Vec<(usize, f64)> = (0..queries.len())
+            .filter(|&i| plain[i] != fma[i])
+            .map(|i| (i, brute.margin_slack(&queries[i], 0.01)))
+            .collect();
+        let worst = flips.iter().map(|f| f.1.abs()).fold(0.0, f64::max);
+        eprintln!(
+            "{} queries ({} at their own clearance), {} colliding: {} flip fused, the farthest {worst:.2e} mm from its margin",
+            queries.len(),
+            at_contact.len(),
+            plain.iter().filter(|&&h| h).count(),
+            flips.len()
+        );
+        for &(i, slack) in &flips {
+            assert!(
+                slack.abs() < 1e-3,
+                "query {i} flips {slack} mm from its margin: {:?}",
+                queries[i]
+            );
+        }
+    }
 }

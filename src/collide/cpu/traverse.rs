@@ -74,46 +74,100 @@ pub fn head_tri(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> HeadTri {
     }
 }
 
-/// The kernel's walk for query `q`: children pushed untested (the second
-/// popped first), nodes printed later skipped, a node wholly inside the
-/// head or a triangle wholly inside ends it.
+/// A node as the walk sees it (the kernel's `NodeTest`).
+#[derive(Clone, Copy, Debug)]
+struct NodeTest {
+    /// 1 settled clear (or printed later), −1 wholly inside the head, 0
+    /// undecided.
+    state: i32,
+    /// How close its sphere comes to the tip: the nearer undecided child
+    /// is walked first.
+    near: f32,
+}
+
+/// The kernel's `test_node`: the node's stamp, its sphere against the
+/// grid, then its slab and the hull plane facing it.
+#[inline(always)]
+fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
+    let node = s.nodes[i as usize];
+    if node.min_stamp >= q.cutoff {
+        return NodeTest {
+            state: 1,
+            near: 0.0,
+        };
+    }
+    let c = to_head(q, node.center);
+    let margin = sphere_margin(q, c, node.radius);
+    let cls = classify(s.head, s.grid, c, node.radius, margin);
+    if cls != 0 {
+        return NodeTest {
+            state: cls,
+            near: 0.0,
+        };
+    }
+    if slab_clear(s.head, s.grid, q, &node, margin)
+        || node_hull_clear(s.head, s.grid, q, &node, c, margin)
+    {
+        return NodeTest {
+            state: 1,
+            near: 0.0,
+        };
+    }
+    NodeTest {
+        state: 0,
+        near: length(c) - node.radius,
+    }
+}
+
+/// The kernel's walk for query `q`: children tested before they are
+/// pushed (only undecided ones are, the nearer to the tip on top), a node
+/// or a triangle wholly inside the head ends it.
 pub fn walk(s: &SceneView, q: &GpuQuery) -> Walk {
     let mut out = Walk::default();
     let mut stack = [0u32; STACK_SIZE];
-    let mut sp = 1usize;
+    let mut sp = 0usize;
+    let root = test_node(s, q, 0);
+    out.hit = root.state < 0;
+    if root.state == 0 {
+        sp = 1;
+    }
     while sp > 0 && !out.hit {
         sp -= 1;
         let node = s.nodes[stack[sp] as usize];
-        if node.min_stamp >= q.cutoff {
-            continue;
-        }
-        let c = to_head(q, node.center);
-        let margin = sphere_margin(q, c, node.radius);
-        let cls = classify(s.head, s.grid, c, node.radius, margin);
-        if cls < 0 {
-            out.hit = true;
-        } else if cls == 0
-            && !slab_clear(s.head, s.grid, q, &node, margin)
-            && !node_hull_clear(s.head, s.grid, q, &node, c, margin)
-        {
-            match node.leaf_range() {
-                Some((first, count)) => {
-                    for t in first..first + count {
-                        let tri = &s.tris[t as usize];
-                        if tri.stamp < q.cutoff {
-                            let h = head_tri(s, q, tri);
-                            if h.cls < 0 {
-                                out.hit = true;
-                            } else if h.cls == 0 {
-                                out.candidates.push(t);
-                            }
+        match node.leaf_range() {
+            Some((first, count)) => {
+                for t in first..first + count {
+                    let tri = &s.tris[t as usize];
+                    if tri.stamp < q.cutoff {
+                        let h = head_tri(s, q, tri);
+                        if h.cls < 0 {
+                            out.hit = true;
+                        } else if h.cls == 0 {
+                            out.candidates.push(t);
                         }
                     }
                 }
-                None => {
-                    stack[sp] = node.packed;
-                    stack[sp + 1] = node.packed + 1;
+            }
+            None => {
+                let a = node.packed;
+                let (ta, tb) = (test_node(s, q, a), test_node(s, q, a + 1));
+                if ta.state < 0 || tb.state < 0 {
+                    out.hit = true;
+                } else if ta.state == 0 && tb.state == 0 {
+                    let (near, far) = if ta.near <= tb.near {
+                        (a, a + 1)
+                    } else {
+                        (a + 1, a)
+                    };
+                    stack[sp] = far;
+                    stack[sp + 1] = near;
                     sp += 2;
+                } else if ta.state == 0 {
+                    stack[sp] = a;
+                    sp += 1;
+                } else if tb.state == 0 {
+                    stack[sp] = a + 1;
+                    sp += 1;
                 }
             }
         }
