@@ -490,3 +490,172 @@ fn the_exact_kernel_decides_each_pair_as_its_cpu_mirror_does() {
         );
     }
 }
+
+/// Random moves over a random scene, for every Table I configuration,
+/// both rotary pairs and both interpolations (joint-linear and the tip
+/// straight), asked as moves (`Backend::sampled_moves`), in batches small
+/// enough that several are in flight and lists that fill:
+/// - the samples `collide_expand` poses are its mirror's
+///   (`collide::cpu::expand`) to the GPU's `sin`/`cos`, and the `f64`
+///   kinematics' (`Machine::pose_along`) to `f32` rounding;
+/// - each move's verdict (`collide_reduce`) is the OR of the cpu's
+///   verdicts on those very samples;
+/// - against the cpu backend posing the samples in `f64`, moves differ
+///   only where a sample is a near-contact.
+#[test]
+fn moves_posed_and_reduced_on_the_device_match_the_host() {
+    use maamplan::collide::cpu::expand;
+    use maamplan::collide::moves::{gpu_motion, gpu_move, SampledMove};
+    use maamplan::kinematics::post::Dialect;
+    use maamplan::kinematics::{inverse, Configuration, Machine, Rotary};
+    use rand::Rng;
+    let mut r = rng(160);
+    let scene = star_scene(&mut r, 9, 2.5, [0.4, 0.7]);
+    let Some(g) = gpu(
+        &scene,
+        GpuOptions {
+            batch: Some(512),
+            capacity: Some(2048),
+            ..GpuOptions::default()
+        },
+    ) else {
+        return;
+    };
+    let cpu = CpuBackend::new(&scene);
+    let wq = &scene.waypoint_queries;
+    let (mut moved, mut hits, mut near) = (0, 0, 0);
+    for configuration in [Configuration::I, Configuration::II, Configuration::III] {
+        for rotary in [Rotary::BC, Rotary::AC] {
+            for dialect in [Dialect::Joint, Dialect::G43_4] {
+                let mut m = Machine {
+                    configuration,
+                    rotary,
+                    d: 35.0,
+                    h: 60.0,
+                    r: 12.0,
+                    ..Machine::default()
+                };
+                m.post.dialect = dialect;
+                let what = format!("{configuration:?} {rotary:?} {dialect:?}");
+                let moves: Vec<SampledMove> = (0..150)
+                    .map(|_| {
+                        let i = r.random_range(0..wq.len() - 3);
+                        let j = i + r.random_range(1..3);
+                        let dir = |r: &mut rand_chacha::ChaCha8Rng| {
+                            let t = r.random_range(0.0f32..0.6);
+                            let a = r.random_range(0.0f32..std::f32::consts::TAU);
+                            [t.sin() * a.cos(), t.sin() * a.sin(), t.cos()]
+                        };
+                        let from = inverse(&m, wq[i].pose.tip, dir(&mut r))[0];
+                        let to = inverse(&m, wq[j].pose.tip, dir(&mut r))[r.random_range(0..2)];
+                        SampledMove {
+                            from,
+                            to,
+                            cutoff: wq[i].cutoff,
+                            margin: MARGINS[r.random_range(0..MARGINS.len())],
+                            intervals: r.random_range(1..12),
+                        }
+                    })
+                    .collect();
+                // The samples as posed: on the device, by the mirror, in f64.
+                let motion = gpu_motion(&m, moves.len());
+                let mut first = 0;
+                let mut device = Vec::new();
+                for chunk in moves.chunks(50) {
+                    device.extend(g.expanded(&m, chunk).unwrap());
+                }
+                for mv in &moves {
+                    let gm = gpu_move(mv, first);
+                    let mirror = expand::samples(&motion, &gm);
+                    let n = mv.intervals as f64;
+                    for (k, q) in mirror.iter().enumerate() {
+                        let exact = Query {
+                            pose: m.pose_along(&mv.from, &mv.to, (k + 1) as f64 / n),
+                            cutoff: mv.cutoff,
+                            margin: mv.margin,
+                            slope: 0.0,
+                        }
+                        .to_gpu();
+                        let d = &device[first as usize + k];
+                        for row in 0..3 {
+                            for col in 0..4 {
+                                let tol = if col == 3 { 1e-3 } else { 1e-5 };
+                                let (a, b, c) =
+                                    (d.rows[row][col], q.rows[row][col], exact.rows[row][col]);
+                                assert!((a - b).abs() <= tol, "{what}: device {a} vs mirror {b}");
+                                assert!((b - c).abs() <= tol, "{what}: mirror {b} vs f64 {c}");
+                            }
+                        }
+                        assert_eq!((d.cutoff, d.margin), (mv.cutoff, mv.margin));
+                    }
+                    first += gm.count;
+                }
+                // One verdict per move, reduced on the device.
+                let got = g.sampled_moves(&m, &moves).unwrap();
+                let sample_hits = cpu
+                    .evaluate(&device.iter().map(query_of).collect::<Vec<_>>())
+                    .unwrap();
+                let mut k = 0;
+                for (mv, &h) in moves.iter().zip(&got) {
+                    let n = mv.intervals.saturating_sub(1) as usize;
+                    assert_eq!(
+                        h,
+                        sample_hits[k..k + n].iter().any(|&s| s),
+                        "{what}: a move's reduction"
+                    );
+                    k += n;
+                }
+                // Against the host's f64 samples: near-contacts only.
+                let host = cpu.sampled_moves(&m, &moves).unwrap();
+                for (i, mv) in moves.iter().enumerate() {
+                    if host[i] != got[i] {
+                        let n = mv.intervals as f64;
+                        let slack = (1..mv.intervals)
+                            .map(|k| {
+                                margin_slack(
+                                    &scene,
+                                    &Query {
+                                        pose: m.pose_along(&mv.from, &mv.to, k as f64 / n),
+                                        cutoff: mv.cutoff,
+                                        margin: mv.margin,
+                                        slope: 0.0,
+                                    },
+                                )
+                                .abs()
+                            })
+                            .fold(f64::INFINITY, f64::min);
+                        assert!(
+                            slack < 1e-3,
+                            "{what}: move {i} differs {slack} mm from its margin"
+                        );
+                        near += 1;
+                    }
+                }
+                moved += moves.len();
+                hits += got.iter().filter(|&&h| h).count();
+            }
+        }
+    }
+    let stats = g.stats();
+    eprintln!("{moved} moves, {hits} colliding, {near} near-contacts; {stats}");
+    assert!(
+        hits * 10 > moved && hits * 10 < moved * 9,
+        "{hits} of {moved} moves collide"
+    );
+    assert!(stats.full_batches > 0, "{stats}");
+}
+
+/// A query from the words the kernels read (rows of the rotation's
+/// columns, the tip in the fourth place).
+fn query_of(q: &maamplan::scene::GpuQuery) -> Query {
+    let col = |i: usize| [q.rows[i][0], q.rows[i][1], q.rows[i][2]];
+    Query {
+        pose: maamplan::geometry::Pose {
+            cols: [col(0), col(1), col(2)],
+            tip: [q.rows[0][3], q.rows[1][3], q.rows[2][3]],
+        },
+        cutoff: q.cutoff,
+        margin: q.margin,
+        slope: q.slope,
+    }
+}

@@ -1,8 +1,10 @@
 //! Every WGSL kernel parses and validates with naga (no GPU needed), and the
 //! WGSL structs have the sizes and field offsets of their Rust twins.
 
-use maamplan::collide::gpu::shaders::{ALL, COLLIDE_TRAVERSE};
-use maamplan::scene::{GpuHeadParams, GpuNode, GpuParams, GpuPartNode, GpuQuery, GpuTriangle};
+use maamplan::collide::gpu::shaders::{ALL, COLLIDE_REDUCE, COLLIDE_TRAVERSE};
+use maamplan::scene::{
+    GpuHeadParams, GpuMotion, GpuMove, GpuNode, GpuParams, GpuPartNode, GpuQuery, GpuTriangle,
+};
 use naga::valid::{Capabilities, ValidationFlags, Validator};
 
 #[test]
@@ -40,6 +42,17 @@ fn shared_constants_match_rust() {
     assert_eq!(value("RESULT_HIT"), RESULT_HIT);
     assert_eq!(value("RESULT_INCOMPLETE"), RESULT_INCOMPLETE);
     assert_eq!(value("RESULT_STORED_SHIFT"), RESULT_STORED_SHIFT);
+    // The motion kernels have their own bindings and read the hit bit too.
+    let reduce = naga::front::wgsl::parse_str(COLLIDE_REDUCE).unwrap();
+    let hit_bit = reduce
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some("RESULT_HIT_BIT"))
+        .map(|(_, c)| &reduce.global_expressions[c.init]);
+    assert!(
+        matches!(hit_bit, Some(naga::Expression::Literal(naga::Literal::U32(v))) if *v == RESULT_HIT),
+        "RESULT_HIT_BIT is {hit_bit:?}"
+    );
 }
 
 #[test]
@@ -66,6 +79,8 @@ fn struct_layouts_match_rust() {
     );
     assert_eq!(size("Query") as usize, std::mem::size_of::<GpuQuery>());
     assert_eq!(size("Params") as usize, std::mem::size_of::<GpuParams>());
+    assert_eq!(size("Move") as usize, std::mem::size_of::<GpuMove>());
+    assert_eq!(size("Motion") as usize, std::mem::size_of::<GpuMotion>());
     assert_eq!(
         size("HeadParams") as usize,
         std::mem::size_of::<GpuHeadParams>()

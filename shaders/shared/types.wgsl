@@ -62,6 +62,32 @@ struct HeadParams {
     _pad: u32,
 }
 
+// A machine move the motion kernels sample (src/scene/gpu_types.rs GpuMove).
+struct Move {
+    start: vec4<f32>,
+    end: vec4<f32>,
+    c_from: f32,
+    c_delta: f32,
+    inv_n: f32,
+    cutoff: u32,
+    margin: f32,
+    first: u32,
+    count: u32,
+    pad: u32,
+}
+
+// The machine and the batch's move count (GpuMotion).
+struct Motion {
+    configuration: u32,
+    rotary: u32,
+    interpolation: u32,
+    move_count: u32,
+    d: f32,
+    h: f32,
+    r: f32,
+    pad: u32,
+}
+
 // Leaf encoding of Node.packed / PartNode.packed (src/scene/gpu_types.rs).
 const LEAF_BIT: u32 = 0x80000000u;
 const FIRST_MASK: u32 = 0x07ffffffu;

@@ -9,6 +9,7 @@ pub mod brute;
 pub mod cpu;
 mod frontier;
 pub mod gpu;
+pub mod moves;
 pub mod parry;
 pub mod sample;
 
@@ -40,6 +41,17 @@ pub trait Backend: Sync {
     /// their work (to show progress) hand it over in multiples of this.
     fn batch_hint(&self) -> usize {
         16_384
+    }
+    /// One verdict per move: does any of its samples
+    /// ([`moves::SampledMove`]) come within its margin? By default the
+    /// samples are posed on the host and asked through [`Self::evaluate`];
+    /// the gpu backend poses them and reduces their verdicts on the device.
+    fn sampled_moves(
+        &self,
+        machine: &crate::kinematics::Machine,
+        moves: &[moves::SampledMove],
+    ) -> Result<Vec<bool>, CollideError> {
+        moves::host_sampled_moves(self, machine, moves)
     }
     /// One line on the backend's own work so far, for `-v` (the gpu
     /// backend: batches, exact tests, candidate lists that filled).

@@ -48,6 +48,7 @@
 //! it, the pieces of a split bead) are one query asking the most any of
 //! them needs ([`share_ends`]).
 
+use crate::collide::moves::SampledMove;
 use crate::collide::{Backend, CollideError};
 use crate::geometry::Pose;
 use crate::kinematics::{Axes, Interpolation, Machine};
@@ -617,30 +618,23 @@ impl<'a> Prover<'a> {
         step: f64,
         max_samples: usize,
     ) -> Result<Vec<bool>, CollideError> {
-        let per: Vec<Vec<Query>> = moves
+        let asked: Vec<SampledMove> = moves
             .par_iter()
             .map(|mv| {
                 let d = displacement_bound(self.machine, &mv.from, &mv.to, self.reach);
                 let n = ((d / step).ceil() as usize).clamp(1, max_samples + 1);
-                (1..n)
-                    .map(|k| {
-                        let pose = self
-                            .machine
-                            .pose_along(&mv.from, &mv.to, k as f64 / n as f64);
-                        self.query_pose(pose, mv.cutoff, self.margin)
-                    })
-                    .collect()
+                SampledMove {
+                    from: mv.from,
+                    to: mv.to,
+                    cutoff: mv.cutoff,
+                    margin: self.margin as f32,
+                    intervals: n as u32,
+                }
             })
             .collect();
-        let flat: Vec<Query> = per.iter().flatten().copied().collect();
-        let hits = self.evaluate(&flat)?;
-        let mut out = Vec::with_capacity(moves.len());
-        let mut k = 0;
-        for q in &per {
-            out.push(hits[k..k + q.len()].iter().any(|&h| h));
-            k += q.len();
-        }
-        Ok(out)
+        let samples: u64 = asked.iter().map(|m| m.intervals as u64 - 1).sum();
+        self.queries.fetch_add(samples, Ordering::Relaxed);
+        self.backend.sampled_moves(self.machine, &asked)
     }
 
     /// Does each move come within the margin of existing material at any

@@ -48,6 +48,7 @@ use rayon::prelude::*;
 pub use crate::scene::gpu_types::STACK_SIZE;
 
 pub mod exact;
+pub mod expand;
 pub mod traverse;
 
 /// Borrowed views of the scene arrays, exactly what the shader binds.

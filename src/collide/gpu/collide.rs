@@ -17,11 +17,15 @@
 //! ([`GpuStats`] counts it).
 
 use super::super::cpu::traverse::Walk;
+use super::super::moves::{gpu_motion, gpu_move, SampledMove};
 use super::super::{check_finite, Backend, CollideError, Query};
 use super::context::GpuContext;
-use super::shaders::{COLLIDE_EXACT, COLLIDE_PREPARE, COLLIDE_TRAVERSE};
+use super::shaders::{
+    COLLIDE_EXACT, COLLIDE_EXPAND, COLLIDE_PREPARE, COLLIDE_REDUCE, COLLIDE_TRAVERSE,
+};
+use crate::kinematics::Machine;
 use crate::scene::gpu_types::{RESULT_HIT, RESULT_INCOMPLETE};
-use crate::scene::{GpuParams, GpuPartNode, GpuQuery, GpuTriangle, Scene};
+use crate::scene::{GpuMotion, GpuMove, GpuParams, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use bytemuck::Pod;
 use std::sync::atomic::{AtomicU64, Ordering};
 use wgpu::util::DeviceExt;
@@ -105,6 +109,15 @@ struct BatchSet {
     indirect: wgpu::Buffer,
     readback: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    /// The machine and move count of a batch of moves.
+    motion: wgpu::Buffer,
+    /// The batch's moves.
+    moves: wgpu::Buffer,
+    /// One verdict per move (`collide_reduce`).
+    move_results: wgpu::Buffer,
+    move_readback: wgpu::Buffer,
+    /// The motion kernels' bindings (their own layout).
+    motion_group: wgpu::BindGroup,
 }
 
 /// The `gpu` backend.
@@ -116,6 +129,10 @@ pub struct GpuBackend {
     exact: wgpu::ComputePipeline,
     /// `collide_exact` without them, for batches at margin 0.
     exact_touch: wgpu::ComputePipeline,
+    /// `collide_expand`: a batch of moves' samples posed on the device.
+    expand: wgpu::ComputePipeline,
+    /// `collide_reduce`: one verdict per move from its samples'.
+    reduce: wgpu::ComputePipeline,
     sets: [BatchSet; 2],
     /// Held for the whole of an `evaluate`: the two buffer sets serve one
     /// caller at a time (the planner measures the input on another thread
@@ -171,6 +188,30 @@ fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
     v.push(entry(14, write));
     v.push(entry(15, write));
     v
+}
+
+/// The motion kernels' bindings: the machine (uniform), the moves, the
+/// batch's queries (written), its result words (read), the move verdicts.
+fn motion_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    let read = wgpu::BufferBindingType::Storage { read_only: true };
+    let write = wgpu::BufferBindingType::Storage { read_only: false };
+    vec![
+        entry(0, wgpu::BufferBindingType::Uniform),
+        entry(1, read),
+        entry(2, write),
+        entry(3, read),
+        entry(4, write),
+    ]
 }
 
 impl GpuBackend {
@@ -232,6 +273,32 @@ impl GpuBackend {
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
+        let motion_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("collide motion"),
+            entries: &motion_layout_entries(),
+        });
+        let motion_pipeline_layout =
+            device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("collide motion"),
+                bind_group_layouts: &[Some(&motion_layout)],
+                immediate_size: 0,
+            });
+        let motion_pipeline = |label: &str, src: &str| {
+            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: Some(label),
+                source: wgpu::ShaderSource::Wgsl(src.into()),
+            });
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&motion_pipeline_layout),
+                module: &module,
+                entry_point: Some("main"),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+        };
+        let expand = motion_pipeline("collide_expand.wgsl", COLLIDE_EXPAND);
+        let reduce = motion_pipeline("collide_reduce.wgsl", COLLIDE_REDUCE);
         let pipeline = |label: &str, src: &str, constants: &[(&str, f64)]| {
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
@@ -290,10 +357,11 @@ impl GpuBackend {
                 std::mem::size_of::<GpuParams>() as u64,
                 U::UNIFORM | U::COPY_DST,
             );
+            // (Copied only by `expanded`, for its test.)
             let queries = buf(
                 "queries",
                 batch as u64 * query_size,
-                U::STORAGE | U::COPY_DST,
+                U::STORAGE | U::COPY_DST | U::COPY_SRC,
             );
             let results = buf(
                 "results",
@@ -334,7 +402,42 @@ impl GpuBackend {
                 layout: &layout,
                 entries: &entries,
             });
+            let motion = buf(
+                "motion",
+                std::mem::size_of::<GpuMotion>() as u64,
+                U::UNIFORM | U::COPY_DST,
+            );
+            let moves = buf(
+                "moves",
+                batch as u64 * std::mem::size_of::<GpuMove>() as u64,
+                U::STORAGE | U::COPY_DST,
+            );
+            let move_results = buf("move results", batch as u64 * 4, U::STORAGE | U::COPY_SRC);
+            let move_readback = buf("move readback", batch as u64 * 4, U::MAP_READ | U::COPY_DST);
+            let motion_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: &motion_layout,
+                entries: &[
+                    motion.as_entire_binding(),
+                    moves.as_entire_binding(),
+                    queries.as_entire_binding(),
+                    results.as_entire_binding(),
+                    move_results.as_entire_binding(),
+                ]
+                .into_iter()
+                .enumerate()
+                .map(|(i, resource)| wgpu::BindGroupEntry {
+                    binding: i as u32,
+                    resource,
+                })
+                .collect::<Vec<_>>(),
+            });
             BatchSet {
+                motion,
+                moves,
+                move_results,
+                move_readback,
+                motion_group,
                 params,
                 queries,
                 results,
@@ -351,6 +454,8 @@ impl GpuBackend {
             prepare,
             exact,
             exact_touch,
+            expand,
+            reduce,
             sets,
             busy: std::sync::Mutex::new(()),
             batch,
@@ -508,8 +613,7 @@ impl GpuBackend {
     }
 
     /// Finish set `s`'s batch of `batch` queries (submitted as `index`):
-    /// read it, resume the walks its full candidate list cut short until
-    /// every query is decided, and append the verdicts to `out`.
+    /// settle it and append the verdicts to `out`.
     fn finish(
         &self,
         s: usize,
@@ -517,15 +621,31 @@ impl GpuBackend {
         index: wgpu::SubmissionIndex,
         out: &mut Vec<bool>,
     ) -> Result<(), CollideError> {
+        let margins = batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
+        let (words, _) = self.settle(s, batch.len(), margins, index)?;
+        out.extend(words.iter().map(|&w| w & RESULT_HIT != 0));
+        Ok(())
+    }
+
+    /// Read set `s`'s batch of `n` queries (submitted as `index`) and
+    /// resume the walks its full candidate list cut short until every
+    /// query is decided: the final result words, and whether any pass was
+    /// resumed.
+    fn settle(
+        &self,
+        s: usize,
+        n: usize,
+        margins: bool,
+        index: wgpu::SubmissionIndex,
+    ) -> Result<(Vec<u32>, bool), CollideError> {
         let c = &self.counters;
-        let n = batch.len();
         let (mut words, mut asked) = self.read(s, n, index)?;
         c.batches.fetch_add(1, Ordering::Relaxed);
         c.queries.fetch_add(n as u64, Ordering::Relaxed);
-        if asked > self.capacity {
+        let resumed = asked > self.capacity;
+        if resumed {
             c.full_batches.fetch_add(1, Ordering::Relaxed);
         }
-        let margins = batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
         loop {
             c.candidates
                 .fetch_add(asked.min(self.capacity) as u64, Ordering::Relaxed);
@@ -543,8 +663,7 @@ impl GpuBackend {
             let index = self.submit_resume(s, n, margins);
             (words, asked) = self.read(s, n, index)?;
         }
-        out.extend(words.iter().map(|&w| w & RESULT_HIT != 0));
-        Ok(())
+        Ok((words, resumed))
     }
 
     /// Evaluate `queries` in batches of at most `batch`, two in flight.
@@ -563,6 +682,150 @@ impl GpuBackend {
             self.finish(ps, pb, pi, &mut out)?;
         }
         Ok(out)
+    }
+}
+
+/// Moves: their samples posed (`collide_expand`) and their verdicts
+/// reduced (`collide_reduce`) on the device; one move record goes up and
+/// one word per move comes back.
+impl GpuBackend {
+    /// [`Backend::sampled_moves`] on the device, batches of at most
+    /// `batch` samples, two in flight.
+    fn moves_on_device(
+        &self,
+        machine: &Machine,
+        moves: &[SampledMove],
+    ) -> Result<Vec<bool>, CollideError> {
+        if let Some(i) = moves
+            .iter()
+            .position(|m| !(m.margin.is_finite() && m.margin >= 0.0))
+        {
+            return Err(CollideError::BadMargin(i));
+        }
+        let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        // Batches of consecutive moves, each with its samples' first slot.
+        let mut batches: Vec<(Vec<usize>, Vec<GpuMove>, usize)> = Vec::new();
+        let mut current: (Vec<usize>, Vec<GpuMove>, usize) = Default::default();
+        for (i, mv) in moves.iter().enumerate() {
+            let count = mv.intervals.saturating_sub(1) as usize;
+            if count == 0 {
+                continue;
+            }
+            if count > self.batch {
+                return Err(CollideError::Unavailable(format!(
+                    "a move of {count} samples exceeds one batch of {}",
+                    self.batch
+                )));
+            }
+            if current.2 + count > self.batch {
+                batches.push(std::mem::take(&mut current));
+            }
+            current.1.push(gpu_move(mv, current.2 as u32));
+            current.0.push(i);
+            current.2 += count;
+        }
+        if current.2 > 0 {
+            batches.push(current);
+        }
+        let mut out = vec![false; moves.len()];
+        let mut pending: Option<(usize, usize, wgpu::SubmissionIndex)> = None;
+        for (k, (_, gm, total)) in batches.iter().enumerate() {
+            let s = k % 2;
+            let index = self.submit_moves(s, machine, gm, *total);
+            if let Some((ps, pk, pi)) = pending.take() {
+                self.finish_moves(ps, &batches[pk], pi, &mut out)?;
+            }
+            pending = Some((s, k, index));
+        }
+        if let Some((ps, pk, pi)) = pending {
+            self.finish_moves(ps, &batches[pk], pi, &mut out)?;
+        }
+        Ok(out)
+    }
+
+    /// Encode and submit a batch of moves on set `s`: their samples posed
+    /// into the query slots, the usual passes over them, the reduction.
+    fn submit_moves(
+        &self,
+        s: usize,
+        machine: &Machine,
+        gm: &[GpuMove],
+        total: usize,
+    ) -> wgpu::SubmissionIndex {
+        let set = &self.sets[s];
+        let q = &self.ctx.queue;
+        q.write_buffer(
+            &set.params,
+            0,
+            bytemuck::bytes_of(&self.params(total, false)),
+        );
+        q.write_buffer(
+            &set.motion,
+            0,
+            bytemuck::bytes_of(&gpu_motion(machine, gm.len())),
+        );
+        q.write_buffer(&set.moves, 0, bytemuck::cast_slice(gm));
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        enc.clear_buffer(&set.results, 0, Some(total as u64 * 4));
+        self.encode_motion(&mut enc, set, &self.expand, gm.len());
+        let margins = gm.iter().any(|m| m.margin > 0.0);
+        self.encode_passes(&mut enc, set, total, margins);
+        self.encode_reduce(&mut enc, set, gm.len());
+        q.submit([enc.finish()])
+    }
+
+    /// One motion kernel over `moves` moves.
+    fn encode_motion(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        set: &BatchSet,
+        kernel: &wgpu::ComputePipeline,
+        moves: usize,
+    ) {
+        let mut pass = enc.begin_compute_pass(&Default::default());
+        pass.set_bind_group(0, &set.motion_group, &[]);
+        pass.set_pipeline(kernel);
+        pass.dispatch_workgroups((moves as u32).div_ceil(WORKGROUP), 1, 1);
+    }
+
+    /// The reduction and the copy of its verdicts for reading.
+    fn encode_reduce(&self, enc: &mut wgpu::CommandEncoder, set: &BatchSet, moves: usize) {
+        self.encode_motion(enc, set, &self.reduce, moves);
+        enc.copy_buffer_to_buffer(
+            &set.move_results,
+            0,
+            &set.move_readback,
+            0,
+            moves as u64 * 4,
+        );
+    }
+
+    /// Settle set `s`'s batch of moves (its walks resumed if its list
+    /// filled, then reduced again) and scatter its verdicts into `out`.
+    fn finish_moves(
+        &self,
+        s: usize,
+        (owners, gm, total): &(Vec<usize>, Vec<GpuMove>, usize),
+        index: wgpu::SubmissionIndex,
+        out: &mut [bool],
+    ) -> Result<(), CollideError> {
+        let set = &self.sets[s];
+        let margins = gm.iter().any(|m| m.margin > 0.0);
+        let (_, resumed) = self.settle(s, *total, margins, index.clone())?;
+        let index = if resumed {
+            // The reduction in the first submission saw the first pass's
+            // verdicts only.
+            let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+            self.encode_reduce(&mut enc, set, gm.len());
+            self.ctx.queue.submit([enc.finish()])
+        } else {
+            index
+        };
+        let words = self.map_words(&set.move_readback, gm.len(), Some(index))?;
+        for (&i, w) in owners.iter().zip(words) {
+            out[i] = w & RESULT_HIT != 0;
+        }
+        Ok(())
     }
 }
 
@@ -607,7 +870,7 @@ impl GpuBackend {
             )));
         }
         let list: Vec<[u32; 2]> = self
-            .map_words(&pairs, asked as usize * 2)?
+            .map_words(&pairs, asked as usize * 2, None)?
             .chunks(2)
             .map(|p| [p[0], p[1]])
             .collect();
@@ -679,6 +942,42 @@ impl GpuBackend {
         Ok(words.iter().map(|&w| w & RESULT_HIT != 0).collect())
     }
 
+    /// `collide_expand` alone: the queries it poses for `moves` (at most
+    /// one batch of samples), in order, as the traverse kernel would read
+    /// them.
+    pub fn expanded(
+        &self,
+        machine: &Machine,
+        moves: &[SampledMove],
+    ) -> Result<Vec<GpuQuery>, CollideError> {
+        let mut gm = Vec::new();
+        let mut total = 0usize;
+        for mv in moves {
+            gm.push(gpu_move(mv, total as u32));
+            total += mv.intervals.saturating_sub(1) as usize;
+        }
+        self.fits(total)?;
+        let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        let set = &self.sets[0];
+        let q = &self.ctx.queue;
+        q.write_buffer(
+            &set.motion,
+            0,
+            bytemuck::bytes_of(&gpu_motion(machine, gm.len())),
+        );
+        if !gm.is_empty() {
+            q.write_buffer(&set.moves, 0, bytemuck::cast_slice(&gm));
+        }
+        let size = std::mem::size_of::<GpuQuery>() as u64;
+        let copy = self.scratch("expanded queries", total as u64 * size);
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.encode_motion(&mut enc, set, &self.expand, gm.len());
+        enc.copy_buffer_to_buffer(&set.queries, 0, &copy, 0, total as u64 * size);
+        let index = q.submit([enc.finish()]);
+        let words = self.map_words(&copy, total * size as usize / 4, Some(index))?;
+        Ok(bytemuck::cast_slice::<u32, GpuQuery>(&words).to_vec())
+    }
+
     /// At most one batch.
     fn fits(&self, n: usize) -> Result<(), CollideError> {
         if n > self.batch {
@@ -700,8 +999,14 @@ impl GpuBackend {
         })
     }
 
-    /// The first `n` words of a scratch buffer whose copy was submitted.
-    fn map_words(&self, buf: &wgpu::Buffer, n: usize) -> Result<Vec<u32>, CollideError> {
+    /// The first `n` words of a mappable buffer whose copy was submitted
+    /// (as `index`, or with everything submitted so far).
+    fn map_words(
+        &self,
+        buf: &wgpu::Buffer,
+        n: usize,
+        index: Option<wgpu::SubmissionIndex>,
+    ) -> Result<Vec<u32>, CollideError> {
         let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
         let slice = buf.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
@@ -711,7 +1016,7 @@ impl GpuBackend {
         self.ctx
             .device
             .poll(wgpu::PollType::Wait {
-                submission_index: None,
+                submission_index: index,
                 timeout: None,
             })
             .map_err(|e| failed(e.to_string()))?;
@@ -750,5 +1055,14 @@ impl Backend for GpuBackend {
 
     fn summary(&self) -> Option<String> {
         Some(self.stats().to_string())
+    }
+
+    /// Posed and reduced on the device ([`GpuBackend`]'s motion kernels).
+    fn sampled_moves(
+        &self,
+        machine: &Machine,
+        moves: &[SampledMove],
+    ) -> Result<Vec<bool>, CollideError> {
+        self.moves_on_device(machine, moves)
     }
 }

@@ -21,6 +21,25 @@ macro_rules! kernel {
     };
 }
 
+macro_rules! motion_kernel {
+    ($file:literal) => {
+        concat!(
+            include_str!("../../../shaders/shared/types.wgsl"),
+            "\n",
+            include_str!("../../../shaders/shared/motion.wgsl"),
+            "\n",
+            include_str!(concat!("../../../shaders/", $file)),
+        )
+    };
+}
+
+/// Before a batch of moves: their samples posed per move
+/// (`shaders/collide_expand.wgsl`).
+pub const COLLIDE_EXPAND: &str = motion_kernel!("collide_expand.wgsl");
+/// After a batch of moves: one verdict per move from its samples'
+/// (`shaders/collide_reduce.wgsl`).
+pub const COLLIDE_REDUCE: &str = motion_kernel!("collide_reduce.wgsl");
+
 /// Pass 1: BVH traversal per query (`shaders/collide_traverse.wgsl`).
 pub const COLLIDE_TRAVERSE: &str = kernel!("collide_traverse.wgsl");
 /// Between the passes: indirect dispatch size (`shaders/collide_prepare.wgsl`).
@@ -33,4 +52,6 @@ pub const ALL: &[(&str, &str)] = &[
     ("collide_traverse", COLLIDE_TRAVERSE),
     ("collide_prepare", COLLIDE_PREPARE),
     ("collide_exact", COLLIDE_EXACT),
+    ("collide_expand", COLLIDE_EXPAND),
+    ("collide_reduce", COLLIDE_REDUCE),
 ];
