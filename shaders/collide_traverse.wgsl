@@ -5,9 +5,12 @@
 // kernel's loops un-nested, which lavapipe needs to compile them correctly,
 // and spreads the exact tests evenly over the GPU's threads.
 //
-// The list is shared by the batch and may fill. The counter only grows,
-// so once one append of a query fails every later one does: the pairs a
-// query handed over are the first ones of its walk order. It records how
+// A query hands over at most params.per_query pairs a pass: a colliding
+// query's first pairs (the nearer nodes are walked first) mostly settle
+// it, and the rest are never tested. The list is shared by the batch and
+// may fill. The counter only grows, so once one append of a query fails
+// every later one does: either way the pairs a query handed over are the
+// first ones of its walk order. It records how
 // many (the result word, RESULT_STORED_SHIFT) and that some are missing
 // (RESULT_INCOMPLETE). A resumed pass (params.resume) walks again only
 // the queries still incomplete and undecided, and appends the pairs after
@@ -85,12 +88,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                         hit = true;
                     } else if h.cls == 0 {
                         if met >= handed && !full {
-                            let k = atomicAdd(&control.count, 1u);
-                            if k < params.capacity {
-                                candidates[k] = vec2<u32>(qi, t);
-                                stored += 1u;
-                            } else {
+                            if stored - handed >= params.per_query {
                                 full = true;
+                            } else {
+                                let k = atomicAdd(&control.count, 1u);
+                                if k < params.capacity {
+                                    candidates[k] = vec2<u32>(qi, t);
+                                    stored += 1u;
+                                } else {
+                                    full = true;
+                                }
                             }
                         }
                         met += 1u;

@@ -12,7 +12,8 @@ struct Params {
     capacity: u32,
     // 0: the batch's first walk; 1: a resumed walk (collide_traverse).
     resume: u32,
-    pad0: u32,
+    // The most candidates one query hands over in one pass.
+    per_query: u32,
     pad1: u32,
     pad2: u32,
 }

@@ -205,14 +205,19 @@ pub struct GpuParams {
     /// whose candidates did not all fit ([`RESULT_INCOMPLETE`]), handing
     /// over the candidates after the ones already tested.
     pub resume: u32,
+    /// The most candidates one query hands over in one pass; the rest
+    /// wait for a resumed pass ([`RESULT_INCOMPLETE`]), by when the first
+    /// ones may have settled the query.
+    pub per_query: u32,
     /// Padding to 16-byte multiples (uniform layout).
-    pub _pad: [u32; 3],
+    pub _pad: [u32; 2],
 }
 
 /// The batch's per-query result word: the query collides.
 pub const RESULT_HIT: u32 = 1;
-/// The result word: some of the query's candidates found the list full
-/// (its walk is resumed in the next pass of the batch).
+/// The result word: some of the query's candidates were not handed over
+/// (the list was full, or the query had handed over its share for the
+/// pass): its walk is resumed in the next pass of the batch.
 pub const RESULT_INCOMPLETE: u32 = 2;
 /// The result word above these bits: how many of the query's candidates,
 /// in walk order, have been handed to the exact pass.

@@ -51,7 +51,16 @@ pub struct GpuOptions {
     /// Slots of the candidate list per batch (default: 64 per query, within
     /// the device's limits). Tests lower it to make lists fill.
     pub capacity: Option<u32>,
+    /// The most candidates one query hands over in one pass (default
+    /// [`PER_QUERY`]; `u32::MAX`: all of them at once).
+    pub per_query: Option<u32>,
 }
+
+/// Candidates a query hands over per pass by default: a colliding query's
+/// first few pairs (nearer nodes walked first) mostly settle it, so the
+/// rest are never tested; a query they do not settle walks again for the
+/// next few.
+pub const PER_QUERY: u32 = 16;
 
 /// What the backend has done since it was built: how often a batch's
 /// candidate list filled and what that cost.
@@ -64,9 +73,10 @@ pub struct GpuStats {
     pub queries: u64,
     /// (query, triangle) pairs handed to the exact tests.
     pub candidates: u64,
-    /// Batches whose candidate list filled.
-    pub full_batches: u64,
-    /// Further passes those needed (walks of the incomplete queries only).
+    /// Passes whose candidate list filled.
+    pub full_lists: u64,
+    /// Resumed passes (walks of the incomplete, undecided queries only:
+    /// their share of pairs handed over, or the list full).
     pub resumed_passes: u64,
     /// Query walks those passes made.
     pub resumed_queries: u64,
@@ -76,13 +86,13 @@ impl std::fmt::Display for GpuStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "gpu: {} queries in {} batches, {} exact tests; candidate list full in {} batch(es): {} query walk(s) resumed in {} pass(es), no batch redone",
+            "gpu: {} queries in {} batches, {} exact tests; {} query walk(s) resumed in {} pass(es) (the candidate list full in {}), no batch redone",
             self.queries,
             self.batches,
             self.candidates,
-            self.full_batches,
             self.resumed_queries,
-            self.resumed_passes
+            self.resumed_passes,
+            self.full_lists
         )
     }
 }
@@ -93,7 +103,7 @@ struct Counters {
     batches: AtomicU64,
     queries: AtomicU64,
     candidates: AtomicU64,
-    full_batches: AtomicU64,
+    full_lists: AtomicU64,
     resumed_passes: AtomicU64,
     resumed_queries: AtomicU64,
 }
@@ -140,6 +150,7 @@ pub struct GpuBackend {
     busy: std::sync::Mutex<()>,
     batch: usize,
     capacity: u32,
+    per_query: u32,
     counters: Counters,
     nodes_per_chunk: u32,
     tris_per_chunk: u32,
@@ -460,6 +471,7 @@ impl GpuBackend {
             busy: std::sync::Mutex::new(()),
             batch,
             capacity: capacity as u32,
+            per_query: opts.per_query.unwrap_or(PER_QUERY).max(1),
             counters: Counters::default(),
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
             tris_per_chunk: tris_per_chunk.min(u32::MAX as usize) as u32,
@@ -490,7 +502,7 @@ impl GpuBackend {
             batches: get(&c.batches),
             queries: get(&c.queries),
             candidates: get(&c.candidates),
-            full_batches: get(&c.full_batches),
+            full_lists: get(&c.full_lists),
             resumed_passes: get(&c.resumed_passes),
             resumed_queries: get(&c.resumed_queries),
         }
@@ -503,7 +515,8 @@ impl GpuBackend {
             query_count: n as u32,
             capacity: self.capacity,
             resume: resume as u32,
-            _pad: [0; 3],
+            per_query: self.per_query,
+            _pad: [0; 2],
         }
     }
 
@@ -639,29 +652,33 @@ impl GpuBackend {
         index: wgpu::SubmissionIndex,
     ) -> Result<(Vec<u32>, bool), CollideError> {
         let c = &self.counters;
+        let waiting = |words: &[u32]| {
+            words
+                .iter()
+                .filter(|&&w| w & RESULT_INCOMPLETE != 0 && w & RESULT_HIT == 0)
+                .count()
+        };
         let (mut words, mut asked) = self.read(s, n, index)?;
         c.batches.fetch_add(1, Ordering::Relaxed);
         c.queries.fetch_add(n as u64, Ordering::Relaxed);
-        let resumed = asked > self.capacity;
-        if resumed {
-            c.full_batches.fetch_add(1, Ordering::Relaxed);
-        }
+        let mut left = waiting(&words);
+        let resumed = left > 0;
         loop {
             c.candidates
                 .fetch_add(asked.min(self.capacity) as u64, Ordering::Relaxed);
-            if asked <= self.capacity {
+            if asked > self.capacity {
+                c.full_lists.fetch_add(1, Ordering::Relaxed);
+            }
+            if left == 0 {
                 break;
             }
-            // Each pass stores `capacity` more pairs, so this ends.
-            let waiting = words
-                .iter()
-                .filter(|&&w| w & RESULT_INCOMPLETE != 0 && w & RESULT_HIT == 0)
-                .count();
+            // Every waiting query has a pair left to hand over and the list
+            // takes at least one, so this ends.
             c.resumed_passes.fetch_add(1, Ordering::Relaxed);
-            c.resumed_queries
-                .fetch_add(waiting as u64, Ordering::Relaxed);
+            c.resumed_queries.fetch_add(left as u64, Ordering::Relaxed);
             let index = self.submit_resume(s, n, margins);
             (words, asked) = self.read(s, n, index)?;
+            left = waiting(&words);
         }
         Ok((words, resumed))
     }
@@ -832,9 +849,9 @@ impl GpuBackend {
 /// Each kernel alone, for the differential tests against its CPU mirror
 /// (`collide::cpu::traverse`, `collide::cpu::exact`), pair by pair.
 impl GpuBackend {
-    /// `collide_traverse` alone over at most one batch of `queries`: per
-    /// query, whether the walk found it colliding and its undecided
-    /// triangles in walk order (one invocation appends its pairs in order,
+    /// `collide_traverse` alone over at most one batch of `queries` (every
+    /// pair of a walk handed over at once): per query, whether the walk
+    /// found it colliding and its undecided triangles in walk order (one invocation appends its pairs in order,
     /// so the shared list keeps each query's order). Fails when the pairs
     /// do not fit the candidate list: build the backend with a larger
     /// [`GpuOptions::capacity`].
@@ -846,7 +863,11 @@ impl GpuBackend {
         let n = queries.len();
         let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
         let q = &self.ctx.queue;
-        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&self.params(n, false)));
+        let params = GpuParams {
+            per_query: u32::MAX,
+            ..self.params(n, false)
+        };
+        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&params));
         q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
         let pairs = self.scratch("walks: pairs", self.capacity as u64 * 8);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());

@@ -7,5 +7,5 @@ pub mod collide;
 pub mod context;
 pub mod shaders;
 
-pub use collide::{GpuBackend, GpuOptions, GpuStats};
+pub use collide::{GpuBackend, GpuOptions, GpuStats, PER_QUERY};
 pub use context::{list_adapters, AdapterSummary, GpuContext};
