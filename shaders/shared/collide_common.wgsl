@@ -62,32 +62,27 @@ const SUPPORT_SIDE: u32 = 32u;
 override MARGIN_TESTS: bool = true;
 const WORKGROUP: u32 = 64u;
 
+// (Compared, not divided: an integer division per node and triangle read
+// is scalar code on a SIMD adapter such as lavapipe.)
 fn part_node(i: u32) -> PartNode {
-    let c = i / params.nodes_per_chunk;
-    let j = i - c * params.nodes_per_chunk;
-    if c == 0u {
-        return part_nodes0[j];
+    if i < params.nodes_per_chunk {
+        return part_nodes0[i];
     }
-    return part_nodes1[j];
+    return part_nodes1[i - params.nodes_per_chunk];
 }
 
 fn part_tri(i: u32) -> Triangle {
-    let c = i / params.tris_per_chunk;
-    let j = i - c * params.tris_per_chunk;
-    switch c {
-        case 0u: {
-            return part_tris0[j];
-        }
-        case 1u: {
-            return part_tris1[j];
-        }
-        case 2u: {
-            return part_tris2[j];
-        }
-        default: {
-            return part_tris3[j];
-        }
+    let n = params.tris_per_chunk;
+    if i < n {
+        return part_tris0[i];
     }
+    if i < 2u * n {
+        return part_tris1[i - n];
+    }
+    if i < 3u * n {
+        return part_tris2[i - 2u * n];
+    }
+    return part_tris3[i - 3u * n];
 }
 
 fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
