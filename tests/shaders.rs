@@ -55,6 +55,19 @@ fn shared_constants_match_rust() {
     );
 }
 
+/// The members of the WGSL struct `name`.
+fn struct_members<'m>(module: &'m naga::Module, name: &str) -> &'m [naga::StructMember] {
+    let (_, t) = module
+        .types
+        .iter()
+        .find(|(_, t)| t.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no struct {name}"));
+    let naga::TypeInner::Struct { members, .. } = &t.inner else {
+        panic!("{name} is a struct")
+    };
+    members
+}
+
 #[test]
 fn struct_layouts_match_rust() {
     let module = naga::front::wgsl::parse_str(COLLIDE_TRAVERSE).unwrap();
@@ -86,14 +99,7 @@ fn struct_layouts_match_rust() {
         std::mem::size_of::<GpuHeadParams>()
     );
     // Field offsets of the largest struct, where drift is most likely.
-    let (_, head) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some("HeadParams"))
-        .unwrap();
-    let naga::TypeInner::Struct { members, .. } = &head.inner else {
-        panic!("HeadParams is a struct")
-    };
+    let members = struct_members(&module, "HeadParams");
     let offsets: Vec<(String, u32)> = members
         .iter()
         .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
@@ -129,14 +135,7 @@ fn struct_layouts_match_rust() {
         assert_eq!(got, Some(off), "HeadParams.{name}");
     }
     // The query's cutoff and safety margin, which every kernel reads.
-    let (_, query) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some("Query"))
-        .unwrap();
-    let naga::TypeInner::Struct { members, .. } = &query.inner else {
-        panic!("Query is a struct")
-    };
+    let members = struct_members(&module, "Query");
     let offset = |name: &str| members.iter().find(|m| m.name.as_deref() == Some(name));
     assert_eq!(offset("cutoff").map(|m| m.offset), Some(48));
     assert_eq!(offset("margin").map(|m| m.offset), Some(52));
@@ -155,14 +154,7 @@ fn struct_layouts_match_rust() {
     assert_eq!(&q.cutoff as *const _ as usize - base, 48);
     assert_eq!(&q.margin as *const _ as usize - base, 52);
     // The batch's pass (first walk or resumed), which collide_traverse reads.
-    let (_, params) = module
-        .types
-        .iter()
-        .find(|(_, t)| t.name.as_deref() == Some("Params"))
-        .unwrap();
-    let naga::TypeInner::Struct { members, .. } = &params.inner else {
-        panic!("Params is a struct")
-    };
+    let members = struct_members(&module, "Params");
     let resume = members.iter().find(|m| m.name.as_deref() == Some("resume"));
     assert_eq!(resume.map(|m| m.offset), Some(16));
     let g = GpuParams::default();

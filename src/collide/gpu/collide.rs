@@ -27,7 +27,6 @@ use crate::kinematics::Machine;
 use crate::scene::gpu_types::{RESULT_HIT, RESULT_INCOMPLETE};
 use crate::scene::{GpuMotion, GpuMove, GpuParams, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use bytemuck::Pod;
-use std::sync::atomic::{AtomicU64, Ordering};
 use wgpu::util::DeviceExt;
 
 /// Bindings the part nodes and triangles may be split across (keep in sync
@@ -82,6 +81,18 @@ pub struct GpuStats {
     pub resumed_queries: u64,
 }
 
+impl GpuStats {
+    /// Count `more` in.
+    fn add(&mut self, more: &GpuStats) {
+        self.batches += more.batches;
+        self.queries += more.queries;
+        self.candidates += more.candidates;
+        self.full_lists += more.full_lists;
+        self.resumed_passes += more.resumed_passes;
+        self.resumed_queries += more.resumed_queries;
+    }
+}
+
 impl std::fmt::Display for GpuStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
@@ -95,17 +106,6 @@ impl std::fmt::Display for GpuStats {
             self.full_lists
         )
     }
-}
-
-/// [`GpuStats`] as the backend counts it, from several threads.
-#[derive(Default)]
-struct Counters {
-    batches: AtomicU64,
-    queries: AtomicU64,
-    candidates: AtomicU64,
-    full_lists: AtomicU64,
-    resumed_passes: AtomicU64,
-    resumed_queries: AtomicU64,
 }
 
 /// One set of per-batch buffers.
@@ -151,13 +151,20 @@ pub struct GpuBackend {
     batch: usize,
     capacity: u32,
     per_query: u32,
-    counters: Counters,
+    /// Counted by [`Self::settle`], under `busy`.
+    stats: std::sync::Mutex<GpuStats>,
     nodes_per_chunk: u32,
     tris_per_chunk: u32,
     /// Scene bytes resident on the device.
     pub scene_bytes: u64,
     /// Storage bindings in use for part nodes and part triangles.
     pub bindings_used: (usize, usize),
+}
+
+/// Whether a pass over `queries` needs `collide_exact` with the margin's
+/// distance tests (a query with a margin or a slope).
+fn margin_tests(queries: &[Query]) -> bool {
+    queries.iter().any(|q| q.margin > 0.0 || q.slope > 0.0)
 }
 
 /// Split `data` into `chunks` pieces of `per` elements (empty pieces get one
@@ -176,8 +183,9 @@ fn chunked<T: Pod + Default>(data: &[T], per: usize, chunks: usize) -> Vec<Vec<T
         .collect()
 }
 
-fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
+/// A compute kernel's buffer binding.
+fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::Buffer {
@@ -186,9 +194,15 @@ fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
             min_binding_size: None,
         },
         count: None,
-    };
-    let read = wgpu::BufferBindingType::Storage { read_only: true };
-    let write = wgpu::BufferBindingType::Storage { read_only: false };
+    }
+}
+
+/// Read-only and read-write storage.
+const READ: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: true };
+const WRITE: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: false };
+
+fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
+    let (read, write) = (READ, WRITE);
     let mut v = vec![
         entry(0, wgpu::BufferBindingType::Uniform),
         entry(1, wgpu::BufferBindingType::Uniform),
@@ -204,18 +218,7 @@ fn layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
 /// The motion kernels' bindings: the machine (uniform), the moves, the
 /// batch's queries (written), its result words (read), the move verdicts.
 fn motion_layout_entries() -> Vec<wgpu::BindGroupLayoutEntry> {
-    let entry = |binding: u32, ty: wgpu::BufferBindingType| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    };
-    let read = wgpu::BufferBindingType::Storage { read_only: true };
-    let write = wgpu::BufferBindingType::Storage { read_only: false };
+    let (read, write) = (READ, WRITE);
     vec![
         entry(0, wgpu::BufferBindingType::Uniform),
         entry(1, read),
@@ -489,7 +492,7 @@ impl GpuBackend {
             batch,
             capacity: capacity as u32,
             per_query: opts.per_query.unwrap_or(PER_QUERY).max(1),
-            counters: Counters::default(),
+            stats: Default::default(),
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
             tris_per_chunk: tris_per_chunk.min(u32::MAX as usize) as u32,
             scene_bytes,
@@ -513,16 +516,7 @@ impl GpuBackend {
 
     /// What the backend has done so far.
     pub fn stats(&self) -> GpuStats {
-        let c = &self.counters;
-        let get = |a: &AtomicU64| a.load(Ordering::Relaxed);
-        GpuStats {
-            batches: get(&c.batches),
-            queries: get(&c.queries),
-            candidates: get(&c.candidates),
-            full_lists: get(&c.full_lists),
-            resumed_passes: get(&c.resumed_passes),
-            resumed_queries: get(&c.resumed_queries),
-        }
+        *self.stats.lock().unwrap_or_else(|e| e.into_inner())
     }
 
     fn params(&self, n: usize, resume: bool) -> GpuParams {
@@ -540,19 +534,19 @@ impl GpuBackend {
     /// Encode and submit one batch on buffer set `s`.
     fn submit(&self, s: usize, batch: &[Query]) -> wgpu::SubmissionIndex {
         let set = &self.sets[s];
-        let gpu: Vec<GpuQuery> = batch.iter().map(|q| q.to_gpu()).collect();
-        let q = &self.ctx.queue;
-        q.write_buffer(
-            &set.params,
-            0,
-            bytemuck::bytes_of(&self.params(batch.len(), false)),
-        );
-        q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
+        self.upload(set, batch, self.params(batch.len(), false));
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&set.results, 0, Some(batch.len() as u64 * 4));
-        let margins = batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
-        self.encode_passes(&mut enc, set, batch.len(), margins);
-        q.submit([enc.finish()])
+        self.encode_passes(&mut enc, set, batch.len(), margin_tests(batch));
+        self.ctx.queue.submit([enc.finish()])
+    }
+
+    /// Write a pass's scalars and its queries into `set`.
+    fn upload(&self, set: &BatchSet, queries: &[Query], params: GpuParams) {
+        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
+        let q = &self.ctx.queue;
+        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&params));
+        q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
     }
 
     /// Resume the walks of set `s`'s batch of `n` queries whose candidates
@@ -587,22 +581,31 @@ impl GpuBackend {
             pass.set_pipeline(&self.prepare);
             pass.dispatch_workgroups(1, 1, 1);
         }
+        self.encode_exact(enc, set, margins);
+        self.encode_readback(enc, set, n);
+    }
+
+    /// `collide_exact` over the candidates `collide_prepare` counted, with
+    /// the margin's tests when `margins`.
+    fn encode_exact(&self, enc: &mut wgpu::CommandEncoder, set: &BatchSet, margins: bool) {
         enc.copy_buffer_to_buffer(&set.control, 4, &set.indirect, 0, 12);
-        {
-            let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("collide exact"),
-                timestamp_writes: None,
-            });
-            pass.set_bind_group(0, &set.bind_group, &[]);
-            pass.set_pipeline(if margins {
-                &self.exact
-            } else {
-                &self.exact_touch
-            });
-            pass.dispatch_workgroups_indirect(&set.indirect, 0);
-        }
-        let n = n as u64;
-        enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n * 4);
+        let mut pass = enc.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("collide exact"),
+            timestamp_writes: None,
+        });
+        pass.set_bind_group(0, &set.bind_group, &[]);
+        pass.set_pipeline(if margins {
+            &self.exact
+        } else {
+            &self.exact_touch
+        });
+        pass.dispatch_workgroups_indirect(&set.indirect, 0);
+    }
+
+    /// The copies of `n` result words and the candidate counter to the
+    /// readback buffer ([`Self::read`]).
+    fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, set: &BatchSet, n: usize) {
+        enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n as u64 * 4);
         enc.copy_buffer_to_buffer(&set.control, 0, &set.readback, self.batch as u64 * 4, 4);
     }
 
@@ -614,32 +617,9 @@ impl GpuBackend {
         n: usize,
         index: wgpu::SubmissionIndex,
     ) -> Result<(Vec<u32>, u32), CollideError> {
-        let set = &self.sets[s];
-        let slice = set.readback.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait {
-                submission_index: Some(index),
-                timeout: None,
-            })
-            .map_err(|e| CollideError::Unavailable(format!("GPU stopped responding: {e}")))?;
-        let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
-        rx.recv()
-            .map_err(|e| failed(e.to_string()))?
-            .map_err(|e| failed(e.to_string()))?;
-        let words = {
-            let data = slice
-                .get_mapped_range()
-                .map_err(|e| failed(e.to_string()))?;
-            let words: &[u32] = bytemuck::cast_slice(&data);
+        self.map_read(&self.sets[s].readback, Some(index), |words| {
             (words[..n].to_vec(), words[self.batch])
-        };
-        set.readback.unmap();
-        Ok(words)
+        })
     }
 
     /// Finish set `s`'s batch of `batch` queries (submitted as `index`):
@@ -651,8 +631,7 @@ impl GpuBackend {
         index: wgpu::SubmissionIndex,
         out: &mut Vec<bool>,
     ) -> Result<(), CollideError> {
-        let margins = batch.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
-        let (words, _) = self.settle(s, batch.len(), margins, index)?;
+        let (words, _) = self.settle(s, batch.len(), margin_tests(batch), index)?;
         out.extend(words.iter().map(|&w| w & RESULT_HIT != 0));
         Ok(())
     }
@@ -668,7 +647,6 @@ impl GpuBackend {
         margins: bool,
         index: wgpu::SubmissionIndex,
     ) -> Result<(Vec<u32>, bool), CollideError> {
-        let c = &self.counters;
         let waiting = |words: &[u32]| {
             words
                 .iter()
@@ -676,27 +654,31 @@ impl GpuBackend {
                 .count()
         };
         let (mut words, mut asked) = self.read(s, n, index)?;
-        c.batches.fetch_add(1, Ordering::Relaxed);
-        c.queries.fetch_add(n as u64, Ordering::Relaxed);
+        let mut counted = GpuStats {
+            batches: 1,
+            queries: n as u64,
+            ..GpuStats::default()
+        };
         let mut left = waiting(&words);
         let resumed = left > 0;
         loop {
-            c.candidates
-                .fetch_add(asked.min(self.capacity) as u64, Ordering::Relaxed);
-            if asked > self.capacity {
-                c.full_lists.fetch_add(1, Ordering::Relaxed);
-            }
+            counted.candidates += asked.min(self.capacity) as u64;
+            counted.full_lists += (asked > self.capacity) as u64;
             if left == 0 {
                 break;
             }
             // Every waiting query has a pair left to hand over and the list
             // takes at least one, so this ends.
-            c.resumed_passes.fetch_add(1, Ordering::Relaxed);
-            c.resumed_queries.fetch_add(left as u64, Ordering::Relaxed);
+            counted.resumed_passes += 1;
+            counted.resumed_queries += left as u64;
             let index = self.submit_resume(s, n, margins);
             (words, asked) = self.read(s, n, index)?;
             left = waiting(&words);
         }
+        self.stats
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .add(&counted);
         Ok((words, resumed))
     }
 
@@ -878,14 +860,11 @@ impl GpuBackend {
         let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
         let set = &self.sets[0];
         let n = queries.len();
-        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
-        let q = &self.ctx.queue;
         let params = GpuParams {
             per_query: u32::MAX,
             ..self.params(n, false)
         };
-        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&params));
-        q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
+        self.upload(set, queries, params);
         let pairs = self.scratch("walks: pairs", self.capacity as u64 * 8);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&set.results, 0, Some(n as u64 * 4));
@@ -896,10 +875,9 @@ impl GpuBackend {
             pass.set_pipeline(&self.traverse);
             pass.dispatch_workgroups((n as u32).div_ceil(WORKGROUP), 1, 1);
         }
-        enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n as u64 * 4);
-        enc.copy_buffer_to_buffer(&set.control, 0, &set.readback, self.batch as u64 * 4, 4);
+        self.encode_readback(&mut enc, set, n);
         enc.copy_buffer_to_buffer(&set.candidates, 0, &pairs, 0, self.capacity as u64 * 8);
-        let index = q.submit([enc.finish()]);
+        let index = self.ctx.queue.submit([enc.finish()]);
         let (words, asked) = self.read(0, n, index)?;
         if asked > self.capacity {
             return Err(CollideError::Unavailable(format!(
@@ -941,15 +919,13 @@ impl GpuBackend {
         let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
         let set = &self.sets[0];
         let n = pairs.len();
-        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
         let list: Vec<[u32; 2]> = pairs
             .iter()
             .enumerate()
             .map(|(k, p)| [k as u32, p.1])
             .collect();
+        self.upload(set, &queries, self.params(n, false));
         let q = &self.ctx.queue;
-        q.write_buffer(&set.params, 0, bytemuck::bytes_of(&self.params(n, false)));
-        q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
         if n > 0 {
             q.write_buffer(&set.candidates, 0, bytemuck::cast_slice(&list));
         }
@@ -962,19 +938,8 @@ impl GpuBackend {
             pass.set_pipeline(&self.prepare);
             pass.dispatch_workgroups(1, 1, 1);
         }
-        enc.copy_buffer_to_buffer(&set.control, 4, &set.indirect, 0, 12);
-        {
-            let margins = queries.iter().any(|q| q.margin > 0.0 || q.slope > 0.0);
-            let mut pass = enc.begin_compute_pass(&Default::default());
-            pass.set_bind_group(0, &set.bind_group, &[]);
-            pass.set_pipeline(if margins {
-                &self.exact
-            } else {
-                &self.exact_touch
-            });
-            pass.dispatch_workgroups_indirect(&set.indirect, 0);
-        }
-        enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n as u64 * 4);
+        self.encode_exact(&mut enc, set, margin_tests(&queries));
+        self.encode_readback(&mut enc, set, n);
         let index = q.submit([enc.finish()]);
         let (words, _) = self.read(0, n, index)?;
         Ok(words.iter().map(|&w| w & RESULT_HIT != 0).collect())
@@ -1045,7 +1010,17 @@ impl GpuBackend {
         n: usize,
         index: Option<wgpu::SubmissionIndex>,
     ) -> Result<Vec<u32>, CollideError> {
-        let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
+        self.map_read(buf, index, |words| words[..n].to_vec())
+    }
+
+    /// Wait for submission `index` (or everything submitted so far), map
+    /// `buf` and let `f` read its words.
+    fn map_read<T>(
+        &self,
+        buf: &wgpu::Buffer,
+        index: Option<wgpu::SubmissionIndex>,
+        f: impl FnOnce(&[u32]) -> T,
+    ) -> Result<T, CollideError> {
         let slice = buf.slice(..);
         let (tx, rx) = std::sync::mpsc::channel();
         slice.map_async(wgpu::MapMode::Read, move |r| {
@@ -1057,18 +1032,19 @@ impl GpuBackend {
                 submission_index: index,
                 timeout: None,
             })
-            .map_err(|e| failed(e.to_string()))?;
+            .map_err(|e| CollideError::Unavailable(format!("GPU stopped responding: {e}")))?;
+        let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
         rx.recv()
             .map_err(|e| failed(e.to_string()))?
             .map_err(|e| failed(e.to_string()))?;
-        let words = {
+        let out = {
             let data = slice
                 .get_mapped_range()
                 .map_err(|e| failed(e.to_string()))?;
-            bytemuck::cast_slice::<u8, u32>(&data)[..n].to_vec()
+            f(bytemuck::cast_slice(&data))
         };
         buf.unmap();
-        Ok(words)
+        Ok(out)
     }
 }
 
