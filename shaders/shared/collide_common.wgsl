@@ -39,7 +39,13 @@ struct Control {
 @group(0) @binding(4) var<storage, read> head_nodes: array<Node>;
 @group(0) @binding(5) var<storage, read> head_tris: array<Triangle>;
 @group(0) @binding(6) var<storage, read> head_ray_tris: array<Triangle>;
-@group(0) @binding(7) var<storage, read> grid: array<f32>;
+// The head's grids, support map and hull planes, one f32 array read four
+// at a time: a plane (n, h) is one read (`grid4`), as is any value
+// (`grid_at`). On lavapipe every read with a per-query index is a loop
+// over the SIMD lanes; a plane read as one vec4 instead of four floats,
+// and classify reading one grid instead of two, took 11 % of the walk's
+// instructions on simple_curve's bench mix.
+@group(0) @binding(7) var<storage, read> grid: array<vec4<f32>>;
 @group(0) @binding(8) var<storage, read> part_nodes0: array<PartNode>;
 @group(0) @binding(9) var<storage, read> part_nodes1: array<PartNode>;
 @group(0) @binding(10) var<storage, read> part_tris0: array<Triangle>;
@@ -62,10 +68,18 @@ const SUPPORT_SIDE: u32 = 32u;
 override MARGIN_TESTS: bool = true;
 const WORKGROUP: u32 = 64u;
 
+// How many of the part node and part triangle bindings the scene fills
+// (1..=2 and 1..=4; the host builds the pipelines for its scene). Reads
+// past those are compiled out: lavapipe, which runs every branch of a
+// SIMD lane group, otherwise fetched a triangle four times and a node
+// twice (13 % of the walk's instructions on simple_curve's bench mix).
+override NODE_BINDINGS: u32 = 2u;
+override TRI_BINDINGS: u32 = 4u;
+
 // (Compared, not divided: an integer division per node and triangle read
 // is scalar code on a SIMD adapter such as lavapipe.)
 fn part_node(i: u32) -> PartNode {
-    if i < params.nodes_per_chunk {
+    if NODE_BINDINGS == 1u || i < params.nodes_per_chunk {
         return part_nodes0[i];
     }
     return part_nodes1[i - params.nodes_per_chunk];
@@ -73,16 +87,26 @@ fn part_node(i: u32) -> PartNode {
 
 fn part_tri(i: u32) -> Triangle {
     let n = params.tris_per_chunk;
-    if i < n {
+    if TRI_BINDINGS == 1u || i < n {
         return part_tris0[i];
     }
-    if i < 2u * n {
+    if TRI_BINDINGS == 2u || i < 2u * n {
         return part_tris1[i - n];
     }
-    if i < 3u * n {
+    if TRI_BINDINGS == 3u || i < 3u * n {
         return part_tris2[i - 2u * n];
     }
     return part_tris3[i - 3u * n];
+}
+
+// The head grid's value at i (an index into it as f32s, as in cpu.rs).
+fn grid_at(i: u32) -> f32 {
+    return grid[i >> 2u][i & 3u];
+}
+
+// The four values of the head grid from i, a multiple of 4 (a hull plane).
+fn grid4(i: u32) -> vec4<f32> {
+    return grid[i >> 2u];
 }
 
 fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
@@ -94,10 +118,20 @@ fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// cpu.rs `classify_far`: beyond the fine grid, the far grid's unsigned
-// distances, and beyond that the head's box.
-fn classify_far(c: vec3<f32>, r: f32, margin: f32) -> i32 {
-    let cell = grid_cell(c, head.far_origin, head.far_inv_cell, head.far_dims);
+// cpu.rs `classify`: 1 = wholly outside and more than `margin` from the
+// surface, -1 = wholly inside, 0 = cannot tell. The fine grid's signed
+// distances where it holds c; beyond it the far grid's unsigned ones
+// (`classify_far`: everything there is outside the head, so v >= 0 and
+// the same formula holds); beyond that the head's box. The grid is chosen
+// first and read once.
+fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
+    let fine = grid_cell(c, head.grid_origin, head.inv_cell, head.grid_dims);
+    let far = grid_cell(c, head.far_origin, head.far_inv_cell, head.far_dims);
+    let in_fine = fine.w != 0u;
+    let cell = select(far, fine, in_fine);
+    let dims = select(head.far_dims, head.grid_dims, in_fine);
+    let first = select(head.far_offset, 0u, in_fine);
+    let v = grid_at(first + (cell.z * dims.y + cell.y) * dims.x + cell.x);
     if cell.w == 0u {
         let d = point_box_distance(c, head.aabb_min, head.aabb_max);
         if d - head.grid_slack - margin > r {
@@ -105,25 +139,11 @@ fn classify_far(c: vec3<f32>, r: f32, margin: f32) -> i32 {
         }
         return 0;
     }
-    let v = grid[head.far_offset + (cell.z * head.far_dims.y + cell.y) * head.far_dims.x + cell.x];
-    let slack = v - head.grid_slack - r - margin;
-    if clears_centre(c, head.far_origin, head.far_cell, cell.xyz, slack) {
-        return 1;
-    }
-    return 0;
-}
-
-// cpu.rs `classify`: 1 = wholly outside and more than `margin` from the
-// surface, -1 = wholly inside, 0 = cannot tell.
-fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
-    let cell = grid_cell(c, head.grid_origin, head.inv_cell, head.grid_dims);
-    if cell.w == 0u {
-        return classify_far(c, r, margin);
-    }
-    let v = grid[(cell.z * head.grid_dims.y + cell.y) * head.grid_dims.x + cell.x];
     let m = select(margin, 0.0, v < 0.0);
     let slack = abs(v) - head.grid_slack - r - m;
-    if !clears_centre(c, head.grid_origin, head.cell, cell.xyz, slack) {
+    let origin = select(head.far_origin, head.grid_origin, in_fine);
+    let size = select(head.far_cell, head.cell, in_fine);
+    if !clears_centre(c, origin, size, cell.xyz, slack) {
         return 0;
     }
     if v < 0.0 {
@@ -189,8 +209,8 @@ fn slab_gap(q: Query, node: PartNode) -> f32 {
         q.rows[1].x * n.x + q.rows[1].y * n.y + q.rows[1].z * n.z,
         q.rows[2].x * n.x + q.rows[2].y * n.y + q.rows[2].z * n.z,
     );
-    let below = grid[head.support_offset + support_cell(-nh)];
-    let above = grid[head.support_offset + support_cell(nh)];
+    let below = grid_at(head.support_offset + support_cell(-nh));
+    let above = grid_at(head.support_offset + support_cell(nh));
     return max(-below - hi, lo - above);
 }
 
@@ -207,7 +227,8 @@ fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
     if k == OUTSIDE_PLANES {
         return -1.0;
     }
-    let n = vec3<f32>(grid[k], grid[k + 1u], grid[k + 2u]);
+    let plane = grid4(k);
+    let n = plane.xyz;
     let m = oct_decode(unpack2x16snorm(node.slab_normal));
     let mh = vec3<f32>(
         q.rows[0].x * m.x + q.rows[0].y * m.y + q.rows[0].z * m.z,
@@ -220,7 +241,7 @@ fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
     let beta = sqrt(1.0 - alpha * alpha + 1e-6);
     let a = clamp(-alpha * r, range.x * r, range.y * r);
     let least = alpha * a - beta * sqrt(max(r * r - a * a, 0.0));
-    return dot3(n, c) + least - grid[k + 3u] - 1e-5 * r;
+    return dot3(n, c) + least - plane.w - 1e-5 * r;
 }
 
 // hull_plane_at's answer outside the planes' grid (not hull_plane.rs
@@ -399,9 +420,10 @@ fn hull_clear(m: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f3
     if k == OUTSIDE_PLANES {
         return false;
     }
-    let n = vec3<f32>(grid[k], grid[k + 1u], grid[k + 2u]);
+    let plane = grid4(k);
+    let n = plane.xyz;
     let near = min(min(dot3(n, a), dot3(n, b)), dot3(n, c));
-    return near - grid[k + 3u] - head.grid_slack > margin;
+    return near - plane.w - head.grid_slack > margin;
 }
 
 // The exact half of cpu.rs `tri_hits` (`tri_hits_exact`), for an undecided

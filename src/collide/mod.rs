@@ -10,6 +10,7 @@ pub mod cpu;
 mod frontier;
 pub mod gpu;
 pub mod moves;
+pub mod order;
 pub mod parry;
 pub mod sample;
 

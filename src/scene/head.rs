@@ -138,6 +138,9 @@ impl Head {
         grid.extend(far_grid(bvh, &aabb, far_origin, far_cell, far_dims));
         let support_offset = grid.len() as u32;
         grid.extend(super::slab::support_map(&mesh.vertices));
+        // The planes start on a 16-byte boundary and the grid ends on one:
+        // the kernels read a plane as one vec4 (`grid4`).
+        grid.resize(grid.len().next_multiple_of(4), 0.0);
         let plane_offset = grid.len() as u32;
         let (plane_origin, plane_cell, plane_dims) = hull_plane::plane_grid(origin, cell, dims);
         // Exact containment (ray parity, as the evaluators decide it).
@@ -155,6 +158,7 @@ impl Head {
             inside,
         );
         grid.extend(planes);
+        grid.resize(grid.len().next_multiple_of(4), 0.0);
 
         let params = GpuHeadParams {
             aabb_min: aabb.min,

@@ -205,6 +205,10 @@ pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> 
 
 /// [`classify`] beyond the fine grid: the far grid's unsigned distances
 /// (everything there is outside the head), and beyond that the head's box.
+/// The kernels' `classify` folds this in: it picks the grid that holds `c`
+/// and reads it once (on lavapipe a read with a per-query index is a loop
+/// over the SIMD lanes); since `v >= 0` here, its formula for the fine
+/// grid gives the same value.
 #[inline(always)]
 pub fn classify_far(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
     let Some([ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) else {

@@ -18,6 +18,7 @@
 
 use super::super::cpu::traverse::Walk;
 use super::super::moves::{gpu_motion, gpu_move, SampledMove};
+use super::super::order::coherent_order;
 use super::super::{check_finite, Backend, CollideError, Query};
 use super::context::GpuContext;
 use super::shaders::{
@@ -311,7 +312,21 @@ impl GpuBackend {
                 cache: None,
             })
         };
-        let pipeline = |label: &str, src: &str, constants: &[(&str, f64)]| {
+        // The bindings this scene fills: reads past them are compiled out
+        // (`NODE_BINDINGS`, `TRI_BINDINGS` in collide_common.wgsl).
+        let bindings_used = (
+            nodes.len().div_ceil(nodes_per_chunk).max(1),
+            tris.len().div_ceil(tris_per_chunk).max(1),
+        );
+        let filled = [
+            ("NODE_BINDINGS", bindings_used.0 as f64),
+            ("TRI_BINDINGS", bindings_used.1 as f64),
+        ];
+        let pipeline = |label: &str, src: &str, margin_tests: Option<bool>| {
+            let mut constants = filled.to_vec();
+            if let Some(on) = margin_tests {
+                constants.push(("MARGIN_TESTS", on as u8 as f64));
+            }
             let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
                 label: Some(label),
                 source: wgpu::ShaderSource::Wgsl(src.into()),
@@ -322,7 +337,7 @@ impl GpuBackend {
                 module: &module,
                 entry_point: Some("main"),
                 compilation_options: wgpu::PipelineCompilationOptions {
-                    constants,
+                    constants: &constants,
                     ..Default::default()
                 },
                 cache: None,
@@ -333,22 +348,13 @@ impl GpuBackend {
         // so they compile side by side.
         let (((traverse, prepare), (exact, exact_touch)), (expand, reduce)) =
             std::thread::scope(|t| {
-                let traverse = t.spawn(|| pipeline("collide_traverse.wgsl", COLLIDE_TRAVERSE, &[]));
-                let exact = t.spawn(|| {
-                    pipeline(
-                        "collide_exact.wgsl",
-                        COLLIDE_EXACT,
-                        &[("MARGIN_TESTS", 1.0)],
-                    )
-                });
+                let traverse =
+                    t.spawn(|| pipeline("collide_traverse.wgsl", COLLIDE_TRAVERSE, None));
+                let exact = t.spawn(|| pipeline("collide_exact.wgsl", COLLIDE_EXACT, Some(true)));
                 let exact_touch = t.spawn(|| {
-                    pipeline(
-                        "collide_exact.wgsl (margin 0)",
-                        COLLIDE_EXACT,
-                        &[("MARGIN_TESTS", 0.0)],
-                    )
+                    pipeline("collide_exact.wgsl (margin 0)", COLLIDE_EXACT, Some(false))
                 });
-                let prepare = pipeline("collide_prepare.wgsl", COLLIDE_PREPARE, &[]);
+                let prepare = pipeline("collide_prepare.wgsl", COLLIDE_PREPARE, None);
                 let expand = motion_pipeline("collide_expand.wgsl", COLLIDE_EXPAND);
                 let reduce = motion_pipeline("collide_reduce.wgsl", COLLIDE_REDUCE);
                 let join = |h: std::thread::ScopedJoinHandle<'_, wgpu::ComputePipeline>| {
@@ -496,10 +502,7 @@ impl GpuBackend {
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
             tris_per_chunk: tris_per_chunk.min(u32::MAX as usize) as u32,
             scene_bytes,
-            bindings_used: (
-                nodes.len().div_ceil(nodes_per_chunk),
-                tris.len().div_ceil(tris_per_chunk),
-            ),
+            bindings_used,
             ctx,
         })
     }
@@ -682,8 +685,21 @@ impl GpuBackend {
         Ok((words, resumed))
     }
 
-    /// Evaluate `queries` in batches of at most `batch`, two in flight.
+    /// Evaluate `queries`: walked in coherent order
+    /// ([`crate::collide::order`]), answered in theirs.
     fn run(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
+        let order = coherent_order(queries);
+        let sorted: Vec<Query> = order.iter().map(|&i| queries[i as usize]).collect();
+        let mut out = vec![false; queries.len()];
+        for (verdict, &i) in self.run_in_order(&sorted)?.into_iter().zip(&order) {
+            out[i as usize] = verdict;
+        }
+        Ok(out)
+    }
+
+    /// Evaluate `queries` as given, in batches of at most `batch`, two in
+    /// flight.
+    fn run_in_order(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         let mut out = Vec::with_capacity(queries.len());
         let mut pending: Option<(usize, &[Query], wgpu::SubmissionIndex)> = None;
         for (k, chunk) in queries.chunks(self.batch).enumerate() {
