@@ -7,7 +7,7 @@
 //
 // A query hands over at most params.per_query pairs a pass and stops
 // walking when it meets one more: a colliding query's first pairs (the
-// nearer nodes are walked first) mostly settle it, and the rest of its
+// deepest nodes are walked first) mostly settle it, and the rest of its
 // walk is never made (walking on to its end made the tilted
 // simple_curve's gpu plan 1.3 times as long). The list is shared by the
 // batch and may fill; the counter only grows, so once one append of a
@@ -17,17 +17,20 @@
 // are missing (RESULT_INCOMPLETE). A resumed pass (params.resume) walks
 // again only the queries still incomplete and undecided, and appends the
 // pairs after those: no pair is tested twice and no batch is redone.
-// Children are tested before they are pushed, the nearer to the tip on
-// top (a colliding query meets its hit sooner). Mirrored by
-// src/collide/cpu/traverse.rs.
+// Children are tested before they are pushed, the one reaching deeper
+// into the head on top: a colliding query meets a node or triangle
+// wholly inside the head sooner, which decides it without exact tests
+// (on the tilted simple_curve plan 2.5 M exact tests became 1.6 M and
+// the plan took 0.8 of the time it took walking the nearer child to the
+// tip first). Mirrored by src/collide/cpu/traverse.rs.
 
 // A node as the walk sees it: state 1 settled clear (or printed later),
-// -1 wholly inside the head (the query collides), 0 undecided; `near` is
-// how close its sphere comes to the tip (which undecided child goes
-// first).
+// -1 wholly inside the head (the query collides), 0 undecided; `depth` is
+// the head grid's signed distance at its centre less its radius (which
+// undecided child goes first: the one reaching deeper into the head).
 struct NodeTest {
     state: i32,
-    near: f32,
+    depth: f32,
 }
 
 fn test_node(q: Query, i: u32) -> NodeTest {
@@ -37,14 +40,15 @@ fn test_node(q: Query, i: u32) -> NodeTest {
     }
     let c = to_head(q, node.center);
     let margin = sphere_margin(q, c, node.radius);
-    let cls = classify(c, node.radius, margin);
+    let g = grid_sample(c);
+    let cls = classify_sample(g, c, node.radius, margin);
     if cls != 0 {
         return NodeTest(cls, 0.0);
     }
     if slab_clear(q, node, margin) || node_hull_clear(q, node, c, margin) {
         return NodeTest(1, 0.0);
     }
-    return NodeTest(0, len3(c) - node.radius);
+    return NodeTest(0, g.v - node.radius);
 }
 
 @compute @workgroup_size(64)
@@ -65,7 +69,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var stack: array<u32, STACK_SIZE>;
     var sp = 0u;
     // Nodes are tested before they are pushed: the stack holds undecided
-    // nodes only, the nearer of two children on top.
+    // nodes only, the deeper of two children on top.
     let root = test_node(q, 0u);
     var hit = root.state < 0;
     if root.state == 0 {
@@ -114,9 +118,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             if ta.state < 0 || tb.state < 0 {
                 hit = true;
             } else if ta.state == 0 && tb.state == 0 {
-                let a_nearer = ta.near <= tb.near;
-                stack[sp] = select(a, a + 1u, a_nearer);
-                stack[sp + 1u] = select(a + 1u, a, a_nearer);
+                let a_first = ta.depth <= tb.depth;
+                stack[sp] = select(a, a + 1u, a_first);
+                stack[sp + 1u] = select(a + 1u, a, a_first);
                 sp += 2u;
             } else if ta.state == 0 {
                 stack[sp] = a;

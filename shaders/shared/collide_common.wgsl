@@ -118,13 +118,18 @@ fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// cpu.rs `classify`: 1 = wholly outside and more than `margin` from the
-// surface, -1 = wholly inside, 0 = cannot tell. The fine grid's signed
-// distances where it holds c; beyond it the far grid's unsigned ones
-// (`classify_far`: everything there is outside the head, so v >= 0 and
-// the same formula holds); beyond that the head's box. The grid is chosen
-// first and read once.
-fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
+// What the head's grids say at c (cpu.rs `grid_sample`): the fine grid's
+// signed distance where it holds c; beyond it the far grid's unsigned one
+// (everything there is outside the head); beyond that the distance to the
+// head's box (`cell.w == 0`). The grid is chosen first and read once.
+struct GridSample {
+    v: f32,
+    cell: vec4<u32>,
+    origin: vec3<f32>,
+    size: f32,
+}
+
+fn grid_sample(c: vec3<f32>) -> GridSample {
     let fine = grid_cell(c, head.grid_origin, head.inv_cell, head.grid_dims);
     let far = grid_cell(c, head.far_origin, head.far_inv_cell, head.far_dims);
     let in_fine = fine.w != 0u;
@@ -132,21 +137,36 @@ fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     let dims = select(head.far_dims, head.grid_dims, in_fine);
     let first = select(head.far_offset, 0u, in_fine);
     let v = grid_at(first + (cell.z * dims.y + cell.y) * dims.x + cell.x);
-    if cell.w == 0u {
-        let d = point_box_distance(c, head.aabb_min, head.aabb_max);
-        if d - head.grid_slack - margin > r {
+    let d = point_box_distance(c, head.aabb_min, head.aabb_max);
+    return GridSample(
+        select(d, v, cell.w != 0u),
+        cell,
+        select(head.far_origin, head.grid_origin, in_fine),
+        select(head.far_cell, head.cell, in_fine),
+    );
+}
+
+// cpu.rs `classify`: 1 = the sphere (c, r) wholly outside the head and
+// more than `margin` from its surface, -1 = wholly inside, 0 = cannot
+// tell. (In the far grid v >= 0, so the fine grid's formula holds there
+// too: cpu.rs `classify_far`.)
+fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
+    return classify_sample(grid_sample(c), c, r, margin);
+}
+
+fn classify_sample(g: GridSample, c: vec3<f32>, r: f32, margin: f32) -> i32 {
+    if g.cell.w == 0u {
+        if g.v - head.grid_slack - margin > r {
             return 1;
         }
         return 0;
     }
-    let m = select(margin, 0.0, v < 0.0);
-    let slack = abs(v) - head.grid_slack - r - m;
-    let origin = select(head.far_origin, head.grid_origin, in_fine);
-    let size = select(head.far_cell, head.cell, in_fine);
-    if !clears_centre(c, origin, size, cell.xyz, slack) {
+    let m = select(margin, 0.0, g.v < 0.0);
+    let slack = abs(g.v) - head.grid_slack - r - m;
+    if !clears_centre(c, g.origin, g.size, g.cell.xyz, slack) {
         return 0;
     }
-    if v < 0.0 {
+    if g.v < 0.0 {
         return -1;
     }
     return 1;

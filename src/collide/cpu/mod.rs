@@ -203,12 +203,29 @@ pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> 
     }
 }
 
+/// The kernels' `grid_sample(c).v`: the fine grid's signed distance at
+/// `c` where it holds `c`, else the far grid's unsigned one, else the
+/// distance to the head's box. The walk (`traverse`) orders two undecided
+/// children by it.
+#[inline(always)]
+pub fn grid_value(h: &GpuHeadParams, grid: &[f32], c: V3) -> f32 {
+    if let Some([ix, iy, iz]) = grid_cell(c, h.grid_origin, h.inv_cell, h.grid_dims) {
+        let [nx, ny, _] = h.grid_dims;
+        return grid[((iz * ny + iy) * nx + ix) as usize];
+    }
+    if let Some([ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) {
+        let [nx, ny, _] = h.far_dims;
+        return grid[(h.far_offset + (iz * ny + iy) * nx + ix) as usize];
+    }
+    point_box_distance(c, h.aabb_min, h.aabb_max)
+}
+
 /// [`classify`] beyond the fine grid: the far grid's unsigned distances
 /// (everything there is outside the head), and beyond that the head's box.
 /// The kernels' `classify` folds this in: it picks the grid that holds `c`
-/// and reads it once (on lavapipe a read with a per-query index is a loop
-/// over the SIMD lanes); since `v >= 0` here, its formula for the fine
-/// grid gives the same value.
+/// and reads it once (`grid_sample`; on lavapipe a read with a per-query
+/// index is a loop over the SIMD lanes); since `v >= 0` here, its formula
+/// for the fine grid gives the same answer.
 #[inline(always)]
 pub fn classify_far(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
     let Some([ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) else {

@@ -10,8 +10,8 @@
 //! pair by pair.
 
 use super::{
-    classify, hull_clear, node_hull_clear, slab_clear, sphere_margin, to_head, triangle_margin,
-    SceneView, STACK_SIZE,
+    classify, grid_value, hull_clear, node_hull_clear, slab_clear, sphere_margin, to_head,
+    triangle_margin, SceneView, STACK_SIZE,
 };
 use crate::geometry::{length, sub, V3};
 use crate::scene::{GpuQuery, GpuTriangle};
@@ -80,9 +80,10 @@ struct NodeTest {
     /// 1 settled clear (or printed later), −1 wholly inside the head, 0
     /// undecided.
     state: i32,
-    /// How close its sphere comes to the tip: the nearer undecided child
-    /// is walked first.
-    near: f32,
+    /// The head grid's signed distance at its centre less its radius
+    /// ([`grid_value`]): of two undecided children, the one reaching
+    /// deeper into the head is walked first.
+    depth: f32,
 }
 
 /// The kernel's `test_node`: the node's stamp, its sphere against the
@@ -93,7 +94,7 @@ fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     if node.min_stamp >= q.cutoff {
         return NodeTest {
             state: 1,
-            near: 0.0,
+            depth: 0.0,
         };
     }
     let c = to_head(q, node.center);
@@ -102,7 +103,7 @@ fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     if cls != 0 {
         return NodeTest {
             state: cls,
-            near: 0.0,
+            depth: 0.0,
         };
     }
     if slab_clear(s.head, s.grid, q, &node, margin)
@@ -110,18 +111,18 @@ fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     {
         return NodeTest {
             state: 1,
-            near: 0.0,
+            depth: 0.0,
         };
     }
     NodeTest {
         state: 0,
-        near: length(c) - node.radius,
+        depth: grid_value(s.head, s.grid, c) - node.radius,
     }
 }
 
 /// The kernel's walk for query `q`: children tested before they are
-/// pushed (only undecided ones are, the nearer to the tip on top), a node
-/// or a triangle wholly inside the head ends it.
+/// pushed (only undecided ones are, the one reaching deeper into the head
+/// on top), a node or a triangle wholly inside the head ends it.
 pub fn walk(s: &SceneView, q: &GpuQuery) -> Walk {
     let mut out = Walk::default();
     let mut stack = [0u32; STACK_SIZE];
@@ -154,13 +155,13 @@ pub fn walk(s: &SceneView, q: &GpuQuery) -> Walk {
                 if ta.state < 0 || tb.state < 0 {
                     out.hit = true;
                 } else if ta.state == 0 && tb.state == 0 {
-                    let (near, far) = if ta.near <= tb.near {
+                    let (first, then) = if ta.depth <= tb.depth {
                         (a, a + 1)
                     } else {
                         (a + 1, a)
                     };
-                    stack[sp] = far;
-                    stack[sp + 1] = near;
+                    stack[sp] = then;
+                    stack[sp + 1] = first;
                     sp += 2;
                 } else if ta.state == 0 {
                     stack[sp] = a;
