@@ -408,8 +408,11 @@ fn triangle_margin(q: Query, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
 }
 
 // The triangle in the head frame, the margin it must keep and its
-// classification by bounding sphere, then hull plane (1 outside, -1
-// inside, 0 undecided); the first half of cpu.rs `tri_hits`.
+// classification by bounding sphere, then centroid, then hull plane (1
+// outside, -1 colliding, 0 undecided); the first half of cpu.rs
+// `tri_hits`. A centroid the grid shows inside the head is a point of
+// the triangle inside it: the triangle collides (it crosses the surface
+// or lies inside), and the exact tests would find the same.
 struct HeadTri {
     a: vec3<f32>,
     b: vec3<f32>,
@@ -426,7 +429,11 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
     let m = (a + b + c) * third;
     let r = max(max(len3(a - m), len3(b - m)), len3(c - m));
     let margin = triangle_margin(q, a, b, c);
-    var cls = classify(m, r, margin);
+    let g = grid_sample(m);
+    var cls = classify_sample(g, m, r, margin);
+    if cls == 0 && classify_sample(g, m, 0.0, 0.0) < 0 {
+        cls = -1;
+    }
     if cls == 0 && hull_clear(m, a, b, c, margin) {
         cls = 1;
     }

@@ -39,12 +39,15 @@ pub struct HeadTri {
     pub c: V3,
     /// The margin it must keep ([`triangle_margin`]).
     pub margin: f32,
-    /// 1 clear, −1 wholly inside, 0 undecided (the exact tests decide).
+    /// 1 clear, −1 colliding (wholly inside, or its centroid inside), 0
+    /// undecided (the exact tests decide).
     pub cls: i32,
 }
 
 /// The kernels' `head_tri`: the triangle in the head frame, classified by
-/// the grid around its centroid, then by the hull plane facing it.
+/// the grid around its centroid (its sphere wholly outside or inside, or
+/// the centroid itself inside: a point of the triangle in the head), then
+/// by the hull plane facing it.
 #[inline(always)]
 pub fn head_tri(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> HeadTri {
     let a = to_head(q, tri.v0);
@@ -62,6 +65,10 @@ pub fn head_tri(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> HeadTri {
         .max(length(sub(c, m)));
     let margin = triangle_margin(q, a, b, c);
     let mut cls = classify(s.head, s.grid, m, r, margin);
+    // A centroid inside the head is a point of the triangle inside it.
+    if cls == 0 && classify(s.head, s.grid, m, 0.0, 0.0) < 0 {
+        cls = -1;
+    }
     if cls == 0 && hull_clear(s.head, s.grid, m, [a, b, c], margin) {
         cls = 1;
     }
