@@ -98,7 +98,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                             if stored - handed >= params.per_query {
                                 full = true;
                             } else {
-                                let k = atomicAdd(&control.count, 1u);
+                                let k = append_slot();
                                 if k < params.capacity {
                                     candidates[k] = vec2<u32>(qi, t);
                                     stored += 1u;

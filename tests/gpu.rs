@@ -371,6 +371,30 @@ fn full_candidate_lists_resume_the_walks_and_redo_nothing() {
     let want = roomy.evaluate(&queries).unwrap();
     let got = tight.evaluate(&queries).unwrap();
     assert!(got == want, "a full list changed verdicts");
+    // The same where the walk reserves its slots one atomic per subgroup
+    // (when the adapter has subgroups; lavapipe has).
+    let Some(tight_subgroups) = gpu(
+        &scene,
+        GpuOptions {
+            batch: Some(256),
+            capacity: Some(16),
+            per_query: Some(u32::MAX),
+            subgroups: Some(true),
+            ..GpuOptions::default()
+        },
+    ) else {
+        return;
+    };
+    assert!(
+        tight_subgroups.evaluate(&queries).unwrap() == want,
+        "a full list changed verdicts (subgroups: {})",
+        tight_subgroups.subgroups
+    );
+    let ts2 = tight_subgroups.stats();
+    assert!(
+        ts2.full_lists > 0 && ts2.candidates <= roomy.stats().candidates,
+        "{ts2}"
+    );
     let cpu = CpuBackend::new(&scene).evaluate(&queries).unwrap();
     near_contacts_only(&scene, &queries, &cpu, &got, "full lists, gpu vs cpu");
     let (rs, ts) = (roomy.stats(), tight.stats());
@@ -412,17 +436,30 @@ fn the_walk_kernel_lists_what_its_cpu_mirror_lists() {
     let mut queries = with_margin(&tilted, 0.05);
     queries.extend(with_slope(&tilted, 0.05, 0.02));
     cases.push((sc, queries, "simple_curve tilted".into()));
-    for (scene, queries, what) in &cases {
+    // Both ways of appending: one atomic per pair, and (where the adapter
+    // has subgroups, as lavapipe does) one per subgroup.
+    let appends = [(Some(false), "atomic"), (Some(true), "subgroup")];
+    for ((scene, queries, what), (subgroups, append)) in cases
+        .iter()
+        .flat_map(|c| appends.iter().map(move |a| (c, *a)))
+    {
         let Some(g) = gpu(
             scene,
             GpuOptions {
                 batch: Some(4096),
                 capacity: Some(1 << 22),
+                subgroups,
                 ..GpuOptions::default()
             },
         ) else {
             return;
         };
+        assert_eq!(
+            g.subgroups,
+            subgroups == Some(true) && g.adapter().subgroups,
+            "{append} appends asked"
+        );
+        let what = format!("{what}, {append} appends (subgroups: {})", g.subgroups);
         let view = SceneView::new(scene);
         let (mut pairs, mut hits, mut differ) = (0, 0, Vec::new());
         for chunk in queries.chunks(4096) {

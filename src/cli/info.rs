@@ -27,12 +27,13 @@ pub fn run() -> Result<()> {
             a.driver
         );
         println!(
-            "    max storage binding {} MiB, max buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, {} invocations per workgroup",
+            "    max storage binding {} MiB, max buffer {} MiB, {} storage buffers per stage, {} workgroups per dimension, {} invocations per workgroup, subgroups {}",
             l.max_storage_buffer_binding_size >> 20,
             l.max_buffer_size >> 20,
             l.max_storage_buffers_per_shader_stage,
             l.max_compute_workgroups_per_dimension,
-            l.max_compute_invocations_per_workgroup
+            l.max_compute_invocations_per_workgroup,
+            if a.subgroups { "yes" } else { "no" }
         );
     }
     println!("--backend auto uses the first hardware adapter above, else the cpu backend");

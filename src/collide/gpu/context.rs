@@ -20,6 +20,9 @@ pub struct AdapterSummary {
     pub driver: String,
     /// The limits that bound our batches and scene size.
     pub limits: wgpu::Limits,
+    /// Whether it has subgroup operations (the walk then reserves its
+    /// candidates' slots one atomic per subgroup).
+    pub subgroups: bool,
 }
 
 /// An opened device.
@@ -64,6 +67,7 @@ fn summary(a: &wgpu::Adapter) -> AdapterSummary {
         hardware: is_hardware(i.device_type),
         driver: format!("{} {}", i.driver, i.driver_info).trim().to_string(),
         limits: a.limits(),
+        subgroups: a.features().contains(wgpu::Features::SUBGROUP),
     }
 }
 
@@ -120,8 +124,14 @@ impl GpuContext {
             max_compute_workgroups_per_dimension: have.max_compute_workgroups_per_dimension,
             ..wgpu::Limits::downlevel_defaults()
         };
+        let required_features = if s.subgroups {
+            wgpu::Features::SUBGROUP
+        } else {
+            wgpu::Features::empty()
+        };
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("maamplan"),
+            required_features,
             required_limits,
             ..Default::default()
         }))

@@ -1,8 +1,13 @@
 //! WGSL sources, compiled into the binary (never read at run time). WGSL
-//! has no `#include`, so each kernel is the shared files plus its own file.
+//! has no `#include`, so each kernel is the shared files plus its own file
+//! (and how the walk appends a candidate: `shared/append_atomic.wgsl`, or
+//! `shared/append_subgroup.wgsl` where the adapter has subgroups).
 
 macro_rules! kernel {
     ($file:literal) => {
+        kernel!("shared/append_atomic.wgsl", $file)
+    };
+    ($append:literal, $file:literal) => {
         concat!(
             include_str!("../../../shaders/shared/types.wgsl"),
             "\n",
@@ -15,6 +20,8 @@ macro_rules! kernel {
             include_str!("../../../shaders/shared/point_in_mesh.wgsl"),
             "\n",
             include_str!("../../../shaders/shared/collide_common.wgsl"),
+            "\n",
+            include_str!(concat!("../../../shaders/", $append)),
             "\n",
             include_str!(concat!("../../../shaders/", $file)),
         )
@@ -40,8 +47,13 @@ pub const COLLIDE_EXPAND: &str = motion_kernel!("collide_expand.wgsl");
 /// (`shaders/collide_reduce.wgsl`).
 pub const COLLIDE_REDUCE: &str = motion_kernel!("collide_reduce.wgsl");
 
-/// Pass 1: BVH traversal per query (`shaders/collide_traverse.wgsl`).
+/// Pass 1: BVH traversal per query (`shaders/collide_traverse.wgsl`), one
+/// atomic per candidate appended (`shaders/shared/append_atomic.wgsl`).
 pub const COLLIDE_TRAVERSE: &str = kernel!("collide_traverse.wgsl");
+/// [`COLLIDE_TRAVERSE`] for adapters with subgroup operations: one atomic
+/// per subgroup and append (`shaders/shared/append_subgroup.wgsl`).
+pub const COLLIDE_TRAVERSE_SUBGROUP: &str =
+    kernel!("shared/append_subgroup.wgsl", "collide_traverse.wgsl");
 /// Between the passes: indirect dispatch size (`shaders/collide_prepare.wgsl`).
 pub const COLLIDE_PREPARE: &str = kernel!("collide_prepare.wgsl");
 /// Pass 2: exact tests per candidate (`shaders/collide_exact.wgsl`).
@@ -50,6 +62,7 @@ pub const COLLIDE_EXACT: &str = kernel!("collide_exact.wgsl");
 /// Every kernel by name, for validation.
 pub const ALL: &[(&str, &str)] = &[
     ("collide_traverse", COLLIDE_TRAVERSE),
+    ("collide_traverse (subgroups)", COLLIDE_TRAVERSE_SUBGROUP),
     ("collide_prepare", COLLIDE_PREPARE),
     ("collide_exact", COLLIDE_EXACT),
     ("collide_expand", COLLIDE_EXPAND),
