@@ -1,4 +1,4 @@
-// Pass 1 of a batch, one invocation per query: walk the part BVH, settle
+// Pass 1 of a batch: for each query, walk the part BVH, settle
 // what the distance grid can (nodes and triangles wholly outside or
 // inside the head) and append the undecided (query, triangle) pairs to the
 // candidate list for collide_exact. Splitting the work this way keeps each
@@ -23,6 +23,11 @@
 // (on the tilted simple_curve plan 2.5 M exact tests became 1.6 M and
 // the plan took 0.8 of the time it took walking the nearer child to the
 // tip first). Mirrored by src/collide/cpu/traverse.rs.
+//
+// This file is one query's walk, a step at a time (`Walk`); the entry
+// point that hands queries to invocations is traverse_lane.wgsl (one
+// query an invocation) or traverse_persistent.wgsl (an invocation takes
+// the next query when its walk ends; adapters with subgroups).
 
 // A node as the walk sees it: state 1 settled clear (or printed later),
 // -1 wholly inside the head (the query collides), 0 undecided; `depth` is
@@ -51,89 +56,129 @@ fn test_node(q: Query, i: u32) -> NodeTest {
     return NodeTest(0, g.v - node.radius);
 }
 
-@compute @workgroup_size(64)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let qi = gid.x;
-    if qi >= params.query_count {
-        return;
+// One query's walk: the query, its stack of undecided nodes, whether it
+// hit, whether its share of pairs is handed over (`full`), the undecided
+// pairs met so far in walk order (`met`; those below `handed` were tested
+// in an earlier pass) and how many it has handed over (`stored`).
+struct Walk {
+    qi: u32,
+    q: Query,
+    stack: array<u32, STACK_SIZE>,
+    sp: u32,
+    hit: bool,
+    full: bool,
+    met: u32,
+    stored: u32,
+    handed: u32,
+}
+
+// The query whose result word (`results[qi]`) needs a walk in this pass:
+// every one in a batch's first pass; in a resumed pass, only those still
+// incomplete and undecided, with the pairs they handed over before.
+struct Start {
+    walk: bool,
+    handed: u32,
+}
+
+fn walk_needed(qi: u32) -> Start {
+    if params.resume == 0u {
+        return Start(true, 0u);
     }
-    var handed = 0u;
-    if params.resume != 0u {
-        let word = atomicLoad(&results[qi]);
-        if (word & RESULT_INCOMPLETE) == 0u || (word & RESULT_HIT) != 0u {
-            return;
-        }
-        handed = word >> RESULT_STORED_SHIFT;
+    let word = atomicLoad(&results[qi]);
+    if (word & RESULT_INCOMPLETE) == 0u || (word & RESULT_HIT) != 0u {
+        return Start(false, 0u);
     }
-    let q = queries[qi];
-    var stack: array<u32, STACK_SIZE>;
-    var sp = 0u;
-    // Nodes are tested before they are pushed: the stack holds undecided
-    // nodes only, the deeper of two children on top.
-    let root = test_node(q, 0u);
-    var hit = root.state < 0;
+    return Start(true, word >> RESULT_STORED_SHIFT);
+}
+
+// Start walking query qi: the root tested (nodes are tested before they
+// are pushed, so the stack holds undecided nodes only).
+fn walk_begin(w: ptr<function, Walk>, qi: u32, handed: u32) {
+    (*w).qi = qi;
+    (*w).q = queries[qi];
+    let root = test_node((*w).q, 0u);
+    (*w).hit = root.state < 0;
+    (*w).sp = 0u;
     if root.state == 0 {
-        stack[0] = 0u;
-        sp = 1u;
+        (*w).stack[0] = 0u;
+        (*w).sp = 1u;
     }
-    // Undecided pairs met so far, in walk order; those below `handed` were
-    // tested in an earlier pass.
-    var met = 0u;
-    var stored = handed;
-    var full = false;
-    while sp > 0u && !hit && !full {
-        sp -= 1u;
-        let node = part_node(stack[sp]);
-        if is_leaf(node.packed) {
-            let first = leaf_first(node.packed);
-            let end = first + leaf_count(node.packed);
-            for (var t = first; t < end; t++) {
-                let tri = part_tri(t);
-                if tri.stamp < q.cutoff {
-                    let h = head_tri(q, tri);
-                    if h.cls < 0 {
-                        hit = true;
-                    } else if h.cls == 0 {
-                        if met >= handed && !full {
-                            if stored - handed >= params.per_query {
-                                full = true;
+    (*w).full = false;
+    (*w).met = 0u;
+    (*w).handed = handed;
+    (*w).stored = handed;
+}
+
+fn walk_on(w: ptr<function, Walk>) -> bool {
+    return (*w).sp > 0u && !(*w).hit && !(*w).full;
+}
+
+// One node off the stack: a leaf's triangles classified (undecided ones
+// handed over, up to the query's share), or an inner node's two children
+// tested and the undecided pushed, the deeper on top. Returns the loop
+// iterations it made (traverse_persistent.wgsl counts them).
+fn walk_step(w: ptr<function, Walk>) -> u32 {
+    (*w).sp -= 1u;
+    let node = part_node((*w).stack[(*w).sp]);
+    var iterations = 1u;
+    if is_leaf(node.packed) {
+        let first = leaf_first(node.packed);
+        let end = first + leaf_count(node.packed);
+        iterations += end - first;
+        for (var t = first; t < end; t++) {
+            let tri = part_tri(t);
+            if tri.stamp < (*w).q.cutoff {
+                let h = head_tri((*w).q, tri);
+                if h.cls < 0 {
+                    (*w).hit = true;
+                } else if h.cls == 0 {
+                    if (*w).met >= (*w).handed && !(*w).full {
+                        if (*w).stored - (*w).handed >= params.per_query {
+                            (*w).full = true;
+                        } else {
+                            let k = append_slot();
+                            if k < params.capacity {
+                                candidates[k] = vec2<u32>((*w).qi, t);
+                                (*w).stored += 1u;
                             } else {
-                                let k = append_slot();
-                                if k < params.capacity {
-                                    candidates[k] = vec2<u32>(qi, t);
-                                    stored += 1u;
-                                } else {
-                                    full = true;
-                                }
+                                (*w).full = true;
                             }
                         }
-                        met += 1u;
                     }
+                    (*w).met += 1u;
                 }
             }
-        } else {
-            let a = node.packed;
-            let ta = test_node(q, a);
-            let tb = test_node(q, a + 1u);
-            if ta.state < 0 || tb.state < 0 {
-                hit = true;
-            } else if ta.state == 0 && tb.state == 0 {
-                let a_first = ta.depth <= tb.depth;
-                stack[sp] = select(a, a + 1u, a_first);
-                stack[sp + 1u] = select(a + 1u, a, a_first);
-                sp += 2u;
-            } else if ta.state == 0 {
-                stack[sp] = a;
-                sp += 1u;
-            } else if tb.state == 0 {
-                stack[sp] = a + 1u;
-                sp += 1u;
-            }
+        }
+    } else {
+        let a = node.packed;
+        let ta = test_node((*w).q, a);
+        let tb = test_node((*w).q, a + 1u);
+        let sp = (*w).sp;
+        if ta.state < 0 || tb.state < 0 {
+            (*w).hit = true;
+        } else if ta.state == 0 && tb.state == 0 {
+            let a_first = ta.depth <= tb.depth;
+            (*w).stack[sp] = select(a, a + 1u, a_first);
+            (*w).stack[sp + 1u] = select(a + 1u, a, a_first);
+            (*w).sp = sp + 2u;
+        } else if ta.state == 0 {
+            (*w).stack[sp] = a;
+            (*w).sp = sp + 1u;
+        } else if tb.state == 0 {
+            (*w).stack[sp] = a + 1u;
+            (*w).sp = sp + 1u;
         }
     }
-    if hit {
-        atomicStore(&results[qi], RESULT_HIT);
+    return iterations;
+}
+
+// The query's result word: hit, or how many pairs it has handed over and
+// whether some are left.
+fn walk_end(w: ptr<function, Walk>) {
+    if (*w).hit {
+        atomicStore(&results[(*w).qi], RESULT_HIT);
     } else {
-        atomicStore(&results[qi], (stored << RESULT_STORED_SHIFT) | select(0u, RESULT_INCOMPLETE, full));
+        let incomplete = select(0u, RESULT_INCOMPLETE, (*w).full);
+        atomicStore(&results[(*w).qi], ((*w).stored << RESULT_STORED_SHIFT) | incomplete);
     }
 }

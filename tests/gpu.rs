@@ -371,30 +371,34 @@ fn full_candidate_lists_resume_the_walks_and_redo_nothing() {
     let want = roomy.evaluate(&queries).unwrap();
     let got = tight.evaluate(&queries).unwrap();
     assert!(got == want, "a full list changed verdicts");
-    // The same where the walk reserves its slots one atomic per subgroup
-    // (when the adapter has subgroups; lavapipe has).
-    let Some(tight_subgroups) = gpu(
-        &scene,
-        GpuOptions {
-            batch: Some(256),
-            capacity: Some(16),
-            per_query: Some(u32::MAX),
-            subgroups: Some(true),
-            ..GpuOptions::default()
-        },
-    ) else {
-        return;
-    };
-    assert!(
-        tight_subgroups.evaluate(&queries).unwrap() == want,
-        "a full list changed verdicts (subgroups: {})",
-        tight_subgroups.subgroups
-    );
-    let ts2 = tight_subgroups.stats();
-    assert!(
-        ts2.full_lists > 0 && ts2.candidates <= roomy.stats().candidates,
-        "{ts2}"
-    );
+    // The same with each walk kernel (`tight` runs the default: persistent
+    // lanes where the adapter has subgroups).
+    for (subgroups, appends) in [(false, false), (true, true)] {
+        let Some(other) = gpu(
+            &scene,
+            GpuOptions {
+                batch: Some(256),
+                capacity: Some(16),
+                per_query: Some(u32::MAX),
+                subgroups: Some(subgroups),
+                subgroup_appends: Some(appends),
+                ..GpuOptions::default()
+            },
+        ) else {
+            return;
+        };
+        assert!(
+            other.evaluate(&queries).unwrap() == want,
+            "a full list changed verdicts (subgroups {}, subgroup appends {})",
+            other.subgroups,
+            other.subgroup_appends
+        );
+        let os = other.stats();
+        assert!(
+            os.full_lists > 0 && os.candidates <= roomy.stats().candidates,
+            "{os}"
+        );
+    }
     let cpu = CpuBackend::new(&scene).evaluate(&queries).unwrap();
     near_contacts_only(&scene, &queries, &cpu, &got, "full lists, gpu vs cpu");
     let (rs, ts) = (roomy.stats(), tight.stats());
@@ -436,30 +440,38 @@ fn the_walk_kernel_lists_what_its_cpu_mirror_lists() {
     let mut queries = with_margin(&tilted, 0.05);
     queries.extend(with_slope(&tilted, 0.05, 0.02));
     cases.push((sc, queries, "simple_curve tilted".into()));
-    // Both ways of appending: one atomic per pair, and (where the adapter
-    // has subgroups, as lavapipe does) one per subgroup.
-    let appends = [(Some(false), "atomic"), (Some(true), "subgroup")];
-    for ((scene, queries, what), (subgroups, append)) in cases
+    // Every entry point and way of appending: one query an invocation
+    // with one atomic per pair, and (where the adapter has subgroups, as
+    // lavapipe does) persistent lanes with one atomic per pair or per
+    // subgroup.
+    let kernels = [
+        (false, false, "one query an invocation"),
+        (true, false, "persistent lanes"),
+        (true, true, "persistent lanes, subgroup appends"),
+    ];
+    for ((scene, queries, what), (subgroups, appends, kernel)) in cases
         .iter()
-        .flat_map(|c| appends.iter().map(move |a| (c, *a)))
+        .flat_map(|c| kernels.iter().map(move |k| (c, *k)))
     {
         let Some(g) = gpu(
             scene,
             GpuOptions {
                 batch: Some(4096),
                 capacity: Some(1 << 22),
-                subgroups,
+                subgroups: Some(subgroups),
+                subgroup_appends: Some(appends),
                 ..GpuOptions::default()
             },
         ) else {
             return;
         };
+        let offered = g.adapter().subgroups;
         assert_eq!(
-            g.subgroups,
-            subgroups == Some(true) && g.adapter().subgroups,
-            "{append} appends asked"
+            (g.subgroups, g.subgroup_appends),
+            (subgroups && offered, appends && subgroups && offered),
+            "{kernel} asked"
         );
-        let what = format!("{what}, {append} appends (subgroups: {})", g.subgroups);
+        let what = format!("{what}, {kernel} (subgroups offered: {offered})");
         let view = SceneView::new(scene);
         let (mut pairs, mut hits, mut differ) = (0, 0, Vec::new());
         for chunk in queries.chunks(4096) {

@@ -26,10 +26,12 @@ const RESULT_HIT: u32 = 1u;
 const RESULT_INCOMPLETE: u32 = 2u;
 const RESULT_STORED_SHIFT: u32 = 2u;
 
-// Candidate counter, then the indirect dispatch size of collide_exact.
+// Candidate counter, then the indirect dispatch size of collide_exact,
+// then the next query a persistent lane takes (traverse_persistent.wgsl).
 struct Control {
     count: atomic<u32>,
     args: array<u32, 3>,
+    next: atomic<u32>,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;

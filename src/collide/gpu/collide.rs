@@ -23,7 +23,7 @@ use super::super::{check_finite, Backend, CollideError, Query};
 use super::context::GpuContext;
 use super::shaders::{
     COLLIDE_EXACT, COLLIDE_EXPAND, COLLIDE_PREPARE, COLLIDE_REDUCE, COLLIDE_TRAVERSE,
-    COLLIDE_TRAVERSE_SUBGROUP,
+    COLLIDE_TRAVERSE_PERSISTENT, COLLIDE_TRAVERSE_SUBGROUP,
 };
 use crate::kinematics::Machine;
 use crate::scene::gpu_types::{RESULT_HIT, RESULT_INCOMPLETE};
@@ -55,12 +55,16 @@ pub struct GpuOptions {
     /// The most candidates one query hands over in one pass (default
     /// [`PER_QUERY`]; `u32::MAX`: all of them at once).
     pub per_query: Option<u32>,
-    /// Whether the walk reserves candidate slots one atomic per subgroup,
-    /// where the adapter has subgroups (default: on hardware adapters;
-    /// lavapipe has subgroups too, but its atomics are a loop over the
-    /// SIMD lanes either way, and the subgroup kernel ran 2.7 % more
-    /// instructions on simple_curve's bench mix). Tests choose both.
+    /// Whether the walk uses subgroup operations, where the adapter has
+    /// them (default: yes): persistent lanes that take the next query when
+    /// their walk ends (`shaders/traverse_persistent.wgsl`). Tests turn it
+    /// off to run the one-query-an-invocation kernel.
     pub subgroups: Option<bool>,
+    /// With subgroups, whether the walk also reserves candidate slots one
+    /// atomic per subgroup (default: on hardware adapters; lavapipe's
+    /// atomics are a loop over the SIMD lanes either way, and there that
+    /// kernel ran 2.7 % more instructions on simple_curve's bench mix).
+    pub subgroup_appends: Option<bool>,
 }
 
 /// Candidates a query hands over per pass by default: a colliding query's
@@ -167,9 +171,11 @@ pub struct GpuBackend {
     pub scene_bytes: u64,
     /// Storage bindings in use for part nodes and part triangles.
     pub bindings_used: (usize, usize),
-    /// Whether the walk reserves candidate slots one atomic per subgroup
-    /// (`shaders/shared/append_subgroup.wgsl`).
+    /// Whether the walk runs persistent lanes (subgroups).
     pub subgroups: bool,
+    /// Whether it reserves candidate slots one atomic per subgroup
+    /// (`shaders/shared/append_subgroup.wgsl`).
+    pub subgroup_appends: bool,
 }
 
 /// Whether a pass over `queries` needs `collide_exact` with the margin's
@@ -332,11 +338,12 @@ impl GpuBackend {
             ("NODE_BINDINGS", bindings_used.0 as f64),
             ("TRI_BINDINGS", bindings_used.1 as f64),
         ];
-        let subgroups = opts.subgroups.unwrap_or(ctx.summary.hardware) && ctx.summary.subgroups;
-        let traverse_src = if subgroups {
-            COLLIDE_TRAVERSE_SUBGROUP
-        } else {
-            COLLIDE_TRAVERSE
+        let subgroups = opts.subgroups.unwrap_or(true) && ctx.summary.subgroups;
+        let subgroup_appends = subgroups && opts.subgroup_appends.unwrap_or(ctx.summary.hardware);
+        let traverse_src = match (subgroups, subgroup_appends) {
+            (false, _) => COLLIDE_TRAVERSE,
+            (true, false) => COLLIDE_TRAVERSE_PERSISTENT,
+            (true, true) => COLLIDE_TRAVERSE_SUBGROUP,
         };
         let pipeline = |label: &str, src: &str, margin_tests: Option<bool>| {
             let mut constants = filled.to_vec();
@@ -427,7 +434,7 @@ impl GpuBackend {
                 capacity * 8,
                 U::STORAGE | U::COPY_SRC | U::COPY_DST,
             );
-            let control = buf("control", 16, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+            let control = buf("control", 32, U::STORAGE | U::COPY_SRC | U::COPY_DST);
             // Not in the bind group: a buffer bound as storage cannot also
             // drive an indirect dispatch in the same pass.
             let indirect = buf("indirect", 12, U::INDIRECT | U::COPY_DST);
@@ -519,6 +526,7 @@ impl GpuBackend {
             scene_bytes,
             bindings_used,
             subgroups,
+            subgroup_appends,
             ctx,
         })
     }
