@@ -19,13 +19,14 @@
 // lavapipe (Mesa 22.3) ends an invocation's loops after 65,535
 // iterations in all (its loop limiter), and lanes that took queries
 // without end reached that on the tilted simple_curve and left queries
-// unwalked. With LANE_STEPS a quarter of the limit, the walk a lane is
-// in when it stops taking has the rest, more than a whole walk ever
-// needed of traverse_lane.wgsl.
+// unwalked. A subgroup's lanes share that count (they run as one SIMD
+// loop), and a lane's steps bound the group's iterations only while it
+// walks, so LANE_STEPS is an eighth of the limit: 16 queries of the
+// tilted row take a few thousand.
 
 const NO_QUERY: u32 = 0xffffffffu;
 const LANE_QUERIES: u32 = 16u;
-const LANE_STEPS: u32 = 16384u;
+const LANE_STEPS: u32 = 8192u;
 // A subgroup refills when 1 / REFILL of its lanes wait.
 const REFILL: u32 = 4u;
 
