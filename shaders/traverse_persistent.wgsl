@@ -7,10 +7,9 @@
 // the root), so a subgroup walks until a quarter of its lanes wait, then
 // they all take their next query together (Aila and Laine's persistent
 // threads with dynamic fetch). On lavapipe, simple_curve's bench mix: 0.86
-// of the instructions of one query an invocation (traverse_lane.wgsl). A
-// first version with the walk written out in the entry point instead of
-// the shared `Walk` functions ran 0.79 (refilling at a quarter of the
-// lanes; at a half 0.83, at one lane 0.80).
+// of the instructions of one query an invocation (traverse_lane.wgsl;
+// refilling at a half of the lanes or at one lane was dearer in a first
+// version, below, that took queries without bound).
 //
 // Every invocation takes its first query whatever happens, and a batch
 // dispatches one invocation per query, so every query is walked. Later
