@@ -332,17 +332,13 @@ fn full_candidate_lists_resume_the_walks_and_redo_nothing() {
     let scene = star_scene(&mut r, 9, 2.5, [0.6, -0.4]);
     let base = random_queries(&mut r, &scene, 600);
     let queries = with_slope(&base, 0.05, 0.02);
-    let with = |capacity: u32, per_query: u32| {
-        gpu(
-            &scene,
-            GpuOptions {
-                batch: Some(256),
-                capacity: Some(capacity),
-                per_query: Some(per_query),
-                ..GpuOptions::default()
-            },
-        )
+    let options = |capacity: u32, per_query: u32| GpuOptions {
+        batch: Some(256),
+        capacity: Some(capacity),
+        per_query: Some(per_query),
+        ..GpuOptions::default()
     };
+    let with = |capacity: u32, per_query: u32| gpu(&scene, options(capacity, per_query));
     let (Some(roomy), Some(tight), Some(few)) = (
         with(1 << 20, u32::MAX),
         with(16, u32::MAX),
@@ -377,12 +373,9 @@ fn full_candidate_lists_resume_the_walks_and_redo_nothing() {
         let Some(other) = gpu(
             &scene,
             GpuOptions {
-                batch: Some(256),
-                capacity: Some(16),
-                per_query: Some(u32::MAX),
                 subgroups: Some(subgroups),
                 subgroup_appends: Some(appends),
-                ..GpuOptions::default()
+                ..options(16, u32::MAX)
             },
         ) else {
             return;

@@ -150,12 +150,13 @@ fn grid_sample(c: vec3<f32>) -> GridSample {
 
 // cpu.rs `classify`: 1 = the sphere (c, r) wholly outside the head and
 // more than `margin` from its surface, -1 = wholly inside, 0 = cannot
-// tell. (In the far grid v >= 0, so the fine grid's formula holds there
-// too: cpu.rs `classify_far`.)
+// tell.
 fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     return classify_sample(grid_sample(c), c, r, margin);
 }
 
+// cpu.rs `classify_sample`: `classify` from the grid sample at c. In the
+// far grid v >= 0, so the fine grid's formula serves it too.
 fn classify_sample(g: GridSample, c: vec3<f32>, r: f32, margin: f32) -> i32 {
     if g.cell.w == 0u {
         if g.v - head.grid_slack - margin > r {

@@ -366,7 +366,7 @@ fn far_grid(bvh: HeadBvh, aabb: &Aabb, origin: V3, cell: f32, dims: [u32; 3]) ->
     (0..nx * ny * nz)
         .into_par_iter()
         .map(|idx| {
-            // The centre as `classify_far` computes it.
+            // The centre as `classify` measures from it (`clears_centre`).
             let ijk = [idx % nx, (idx / nx) % ny, idx / (nx * ny)];
             let p: V3 = std::array::from_fn(|a| origin[a] + (ijk[a] as f32 + 0.5) * cell);
             if point_box_distance(p, aabb.min, aabb.max) == 0.0 {

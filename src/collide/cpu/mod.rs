@@ -179,66 +179,73 @@ pub fn to_head(q: &GpuQuery, p: V3) -> V3 {
     ]
 }
 
+/// What the head's grids say at a point (the kernels' `GridSample`).
+#[derive(Clone, Copy, Debug)]
+pub struct GridSample {
+    /// The fine grid's signed distance where it holds the point, else the
+    /// far grid's unsigned one (everything there is outside the head),
+    /// else the distance to the head's box.
+    pub v: f32,
+    /// The cell holding the point, its grid's origin and cell size; `None`
+    /// beyond both grids.
+    cell: Option<([u32; 3], V3, f32)>,
+}
+
+/// The head's grids at `c` (head frame), one grid read (the kernels'
+/// `grid_sample`: on lavapipe a read with a per-query index is a loop over
+/// the SIMD lanes, so they pick the grid first and read once).
+#[inline(always)]
+pub fn grid_sample(h: &GpuHeadParams, grid: &[f32], c: V3) -> GridSample {
+    if let Some(ijk @ [ix, iy, iz]) = grid_cell(c, h.grid_origin, h.inv_cell, h.grid_dims) {
+        let [nx, ny, _] = h.grid_dims;
+        return GridSample {
+            v: grid[((iz * ny + iy) * nx + ix) as usize],
+            cell: Some((ijk, h.grid_origin, h.cell)),
+        };
+    }
+    if let Some(ijk @ [ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) {
+        let [nx, ny, _] = h.far_dims;
+        return GridSample {
+            v: grid[(h.far_offset + (iz * ny + iy) * nx + ix) as usize],
+            cell: Some((ijk, h.far_origin, h.far_cell)),
+        };
+    }
+    GridSample {
+        v: point_box_distance(c, h.aabb_min, h.aabb_max),
+        cell: None,
+    }
+}
+
 /// Classify the sphere `(c, r)` (head frame) against the head:
 /// 1 = wholly outside and more than `margin` from the head's surface,
 /// -1 = wholly inside, 0 = cannot tell.
 #[inline(always)]
 pub fn classify(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
-    let Some([ix, iy, iz]) = grid_cell(c, h.grid_origin, h.inv_cell, h.grid_dims) else {
-        return classify_far(h, grid, c, r, margin);
+    classify_sample(h, &grid_sample(h, grid, c), c, r, margin)
+}
+
+/// [`classify`] from the grid sample `g` at `c`. In the far grid `v >= 0`,
+/// so the fine grid's formula serves it too; beyond both grids, the box.
+#[inline(always)]
+pub fn classify_sample(h: &GpuHeadParams, g: &GridSample, c: V3, r: f32, margin: f32) -> i32 {
+    let Some((ijk, origin, size)) = g.cell else {
+        return if g.v - h.grid_slack - margin > r {
+            1
+        } else {
+            0
+        };
     };
-    let [nx, ny, _] = h.grid_dims;
-    let v = grid[((iz * ny + iy) * nx + ix) as usize];
     // Decisive when |v| − |c − centre| − grid_slack > r, plus the query's
     // margin on the outside. (x − 0 is exact, so margin 0 rounds as if the
     // term were absent.)
-    let m = if v < 0.0 { 0.0 } else { margin };
-    let slack = v.abs() - h.grid_slack - r - m;
-    if !clears_centre(c, h.grid_origin, h.cell, [ix, iy, iz], slack) {
+    let m = if g.v < 0.0 { 0.0 } else { margin };
+    let slack = g.v.abs() - h.grid_slack - r - m;
+    if !clears_centre(c, origin, size, ijk, slack) {
         0
-    } else if v < 0.0 {
+    } else if g.v < 0.0 {
         -1
     } else {
         1
-    }
-}
-
-/// The kernels' `grid_sample(c).v`: the fine grid's signed distance at
-/// `c` where it holds `c`, else the far grid's unsigned one, else the
-/// distance to the head's box. The walk (`traverse`) orders two undecided
-/// children by it.
-#[inline(always)]
-pub fn grid_value(h: &GpuHeadParams, grid: &[f32], c: V3) -> f32 {
-    if let Some([ix, iy, iz]) = grid_cell(c, h.grid_origin, h.inv_cell, h.grid_dims) {
-        let [nx, ny, _] = h.grid_dims;
-        return grid[((iz * ny + iy) * nx + ix) as usize];
-    }
-    if let Some([ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) {
-        let [nx, ny, _] = h.far_dims;
-        return grid[(h.far_offset + (iz * ny + iy) * nx + ix) as usize];
-    }
-    point_box_distance(c, h.aabb_min, h.aabb_max)
-}
-
-/// [`classify`] beyond the fine grid: the far grid's unsigned distances
-/// (everything there is outside the head), and beyond that the head's box.
-/// The kernels' `classify` folds this in: it picks the grid that holds `c`
-/// and reads it once (`grid_sample`; on lavapipe a read with a per-query
-/// index is a loop over the SIMD lanes); since `v >= 0` here, its formula
-/// for the fine grid gives the same answer.
-#[inline(always)]
-pub fn classify_far(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32, margin: f32) -> i32 {
-    let Some([ix, iy, iz]) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) else {
-        let d = point_box_distance(c, h.aabb_min, h.aabb_max);
-        return if d - h.grid_slack - margin > r { 1 } else { 0 };
-    };
-    let [nx, ny, _] = h.far_dims;
-    let v = grid[(h.far_offset + (iz * ny + iy) * nx + ix) as usize];
-    let slack = v - h.grid_slack - r - margin;
-    if clears_centre(c, h.far_origin, h.far_cell, [ix, iy, iz], slack) {
-        1
-    } else {
-        0
     }
 }
 

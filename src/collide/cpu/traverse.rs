@@ -10,7 +10,7 @@
 //! pair by pair.
 
 use super::{
-    classify, grid_value, hull_clear, node_hull_clear, slab_clear, sphere_margin, to_head,
+    classify_sample, grid_sample, hull_clear, node_hull_clear, slab_clear, sphere_margin, to_head,
     triangle_margin, SceneView, STACK_SIZE,
 };
 use crate::geometry::{length, sub, V3};
@@ -64,9 +64,10 @@ pub fn head_tri(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> HeadTri {
         .max(length(sub(b, m)))
         .max(length(sub(c, m)));
     let margin = triangle_margin(q, a, b, c);
-    let mut cls = classify(s.head, s.grid, m, r, margin);
+    let g = grid_sample(s.head, s.grid, m);
+    let mut cls = classify_sample(s.head, &g, m, r, margin);
     // A centroid inside the head is a point of the triangle inside it.
-    if cls == 0 && classify(s.head, s.grid, m, 0.0, 0.0) < 0 {
+    if cls == 0 && classify_sample(s.head, &g, m, 0.0, 0.0) < 0 {
         cls = -1;
     }
     if cls == 0 && hull_clear(s.head, s.grid, m, [a, b, c], margin) {
@@ -88,7 +89,7 @@ struct NodeTest {
     /// undecided.
     state: i32,
     /// The head grid's signed distance at its centre less its radius
-    /// ([`grid_value`]): of two undecided children, the one reaching
+    /// ([`GridSample::v`]): of two undecided children, the one reaching
     /// deeper into the head is walked first.
     depth: f32,
 }
@@ -106,7 +107,8 @@ fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     }
     let c = to_head(q, node.center);
     let margin = sphere_margin(q, c, node.radius);
-    let cls = classify(s.head, s.grid, c, node.radius, margin);
+    let g = grid_sample(s.head, s.grid, c);
+    let cls = classify_sample(s.head, &g, c, node.radius, margin);
     if cls != 0 {
         return NodeTest {
             state: cls,
@@ -123,7 +125,7 @@ fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     }
     NodeTest {
         state: 0,
-        depth: grid_value(s.head, s.grid, c) - node.radius,
+        depth: g.v - node.radius,
     }
 }
 

@@ -184,6 +184,32 @@ fn margin_tests(queries: &[Query]) -> bool {
     queries.iter().any(|q| q.margin > 0.0 || q.slope > 0.0)
 }
 
+/// The compute pipeline of `src`'s `main` on `layout`, its overrides set
+/// to `constants`.
+fn compute_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    label: &str,
+    src: &str,
+    constants: &[(&str, f64)],
+) -> wgpu::ComputePipeline {
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(src.into()),
+    });
+    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(layout),
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: wgpu::PipelineCompilationOptions {
+            constants,
+            ..Default::default()
+        },
+        cache: None,
+    })
+}
+
 /// Split `data` into `chunks` pieces of `per` elements (empty pieces get one
 /// default element so every binding is valid).
 fn chunked<T: Pod + Default>(data: &[T], per: usize, chunks: usize) -> Vec<Vec<T>> {
@@ -315,18 +341,7 @@ impl GpuBackend {
                 immediate_size: 0,
             });
         let motion_pipeline = |label: &str, src: &str| {
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(src.into()),
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&motion_pipeline_layout),
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: Default::default(),
-                cache: None,
-            })
+            compute_pipeline(device, &motion_pipeline_layout, label, src, &[])
         };
         // The bindings this scene fills: reads past them are compiled out
         // (`NODE_BINDINGS`, `TRI_BINDINGS` in collide_common.wgsl).
@@ -350,21 +365,7 @@ impl GpuBackend {
             if let Some(on) = margin_tests {
                 constants.push(("MARGIN_TESTS", on as u8 as f64));
             }
-            let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-                label: Some(label),
-                source: wgpu::ShaderSource::Wgsl(src.into()),
-            });
-            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(label),
-                layout: Some(&pipeline_layout),
-                module: &module,
-                entry_point: Some("main"),
-                compilation_options: wgpu::PipelineCompilationOptions {
-                    constants: &constants,
-                    ..Default::default()
-                },
-                cache: None,
-            })
+            compute_pipeline(device, &pipeline_layout, label, src, &constants)
         };
         // Each pipeline compiles its shader (on lavapipe, LLVM: 0.53 s for
         // the six in a row on simple_curve's load); they are independent,
