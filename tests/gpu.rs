@@ -136,9 +136,20 @@ fn margins_decide_flat_and_edge_to_edge_approaches_on_the_gpu() {
 #[test]
 fn simple_curve_every_waypoint_and_100k_tilted_poses() {
     let (_, scene) = simple_curve();
-    let Some(g) = gpu(&scene, GpuOptions::default()) else {
+    // One batch for the 100,000 tilted poses, as on a hardware adapter:
+    // past 65,535 queries the candidate list holds fewer than 64 a query
+    // (the exact dispatch's limit), which full lists and resumed walks
+    // make up for.
+    let Some(g) = gpu(
+        &scene,
+        GpuOptions {
+            batch: Some(131_072),
+            ..GpuOptions::default()
+        },
+    ) else {
         return;
     };
+    assert_eq!(g.batch_size(), 131_072);
     let own = agree(
         &scene,
         &scene.waypoint_queries,
@@ -725,4 +736,56 @@ fn query_of(q: &maamplan::scene::GpuQuery) -> Query {
         margin: q.margin,
         slope: q.slope,
     }
+}
+
+#[test]
+fn bench_tuning_flags_change_the_walk_not_its_verdicts() {
+    // `bench`'s --gpu-* flags reach the backend (its summary names the
+    // batch and the kernel; a share of 2 pairs a pass resumes walks), and
+    // the verdicts stay the cpu's.
+    if GpuContext::open(false).expect("opening the GPU").is_none() {
+        assert!(
+            std::env::var("MAAMPLAN_REQUIRE_GPU").map_or(true, |v| v != "1"),
+            "MAAMPLAN_REQUIRE_GPU=1 but no GPU adapter found"
+        );
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let json = dir.path().join("bench.json");
+    let out = cli(&[
+        "bench",
+        "--backends",
+        "gpu,cpu",
+        "--queries",
+        "3000",
+        "--tilts",
+        "5",
+        "--gpu-batch",
+        "512",
+        "--gpu-walk",
+        "lane",
+        "--gpu-share",
+        "2",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}");
+    assert!(
+        stdout.contains("[batch 512, one query an invocation]"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("ms waiting on the device"), "{stdout}");
+    let resumed: u64 = stdout
+        .split(" query walk(s) resumed")
+        .next()
+        .and_then(|s| s.rsplit(' ').next())
+        .and_then(|n| n.parse().ok())
+        .expect("the gpu's summary line");
+    assert!(resumed > 0, "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let results = report["results"].as_array().unwrap();
+    assert_eq!(results[1]["disagreements_with_first"], 0, "{stdout}");
+    assert!(results[0]["colliding"].as_u64().unwrap() > 0, "{stdout}");
 }

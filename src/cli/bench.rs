@@ -4,6 +4,7 @@
 use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs, UsageError};
 use anyhow::Result;
 use clap::Args;
+use maamplan::collide::gpu::GpuOptions;
 use maamplan::collide::sample::tilted_queries;
 use serde_json::json;
 use std::path::PathBuf;
@@ -29,6 +30,42 @@ pub struct BenchArgs {
     /// Also write the results as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Tuning, gpu backend: queries per batch [default: the adapter's, see
+    /// ARCHITECTURE.md].
+    #[arg(long, value_name = "QUERIES")]
+    gpu_batch: Option<usize>,
+    /// Tuning, gpu backend: the walk kernel [default: persistent where the
+    /// adapter has subgroups].
+    #[arg(long, value_enum)]
+    gpu_walk: Option<GpuWalk>,
+    /// Tuning, gpu backend with persistent lanes: how the walk reserves
+    /// candidate slots [default: subgroup on hardware adapters].
+    #[arg(long, value_enum)]
+    gpu_appends: Option<GpuAppends>,
+    /// Tuning, gpu backend: the most (query, triangle) pairs one query
+    /// hands to the exact tests a pass [default: 16]; a query with more
+    /// undecided pairs walks again.
+    #[arg(long, value_name = "PAIRS")]
+    gpu_share: Option<u32>,
+}
+
+/// How the persistent walk reserves candidate slots (`--gpu-appends`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum GpuAppends {
+    /// One atomic per append (`shaders/shared/append_atomic.wgsl`).
+    Atomic,
+    /// One atomic per subgroup (`shaders/shared/append_subgroup.wgsl`).
+    Subgroup,
+}
+
+/// The gpu backend's walk kernels (`--gpu-walk`).
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum GpuWalk {
+    /// One query an invocation (`shaders/traverse_lane.wgsl`).
+    Lane,
+    /// Persistent lanes taking the batch's next query
+    /// (`shaders/traverse_persistent.wgsl`; needs subgroups).
+    Persistent,
 }
 
 /// Run `bench`.
@@ -61,7 +98,14 @@ pub fn run(a: BenchArgs) -> Result<()> {
     let mut reference: Option<Vec<bool>> = None;
     for kind in &a.backends {
         let t0 = Instant::now();
-        let backend = kind.build(scene, true)?;
+        let gpu = GpuOptions {
+            batch: a.gpu_batch,
+            subgroups: a.gpu_walk.map(|w| w == GpuWalk::Persistent),
+            subgroup_appends: a.gpu_appends.map(|w| w == GpuAppends::Subgroup),
+            per_query: a.gpu_share,
+            ..GpuOptions::default()
+        };
+        let backend = kind.build_with(kind.open(), scene, true, gpu)?;
         let setup = t0.elapsed().as_secs_f64();
         // Repeat short runs (at least 2 s or 5 runs) and keep the median.
         let mut times = Vec::new();

@@ -57,9 +57,12 @@ struct Verdicts {
 /// Run `check`.
 pub fn run(a: CheckArgs) -> Result<()> {
     let (machine, margin) = machine_and_margin(a.machine.as_deref(), a.margin)?;
+    let opening = a.backend.open();
     let job = a.scene.load()?;
     let scene = &job.scene;
-    let backend = a.backend.build(scene, !a.quiet)?;
+    let backend = a
+        .backend
+        .build_with(opening, scene, !a.quiet, Default::default())?;
     let prover = Prover::new(
         &machine,
         backend.as_ref(),

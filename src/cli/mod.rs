@@ -155,11 +155,43 @@ impl BackendKind {
 
     /// Build the backend over `scene`; `announce` says on stderr what `auto` chose.
     pub fn build<'a>(self, scene: &'a Scene, announce: bool) -> Result<Box<dyn Backend + 'a>> {
+        self.build_with(self.open(), scene, announce, GpuOptions::default())
+    }
+
+    /// Start opening the GPU this backend needs (none for cpu and parry) on
+    /// another thread, so that it opens while the caller loads the scene:
+    /// a driver's start takes a few hundred milliseconds.
+    pub fn open(self) -> Opening {
+        let hardware_only = match self {
+            BackendKind::Auto => true,
+            BackendKind::Gpu => false,
+            BackendKind::Cpu | BackendKind::Parry => return Opening(None),
+        };
+        Opening(Some(std::thread::spawn(move || {
+            GpuContext::open(hardware_only)
+        })))
+    }
+
+    /// [`Self::build`] with the GPU `opening` (from [`Self::open`]), the gpu
+    /// backend tuned by `gpu` (`bench`'s tuning flags).
+    pub fn build_with<'a>(
+        self,
+        opening: Opening,
+        scene: &'a Scene,
+        announce: bool,
+        gpu: GpuOptions,
+    ) -> Result<Box<dyn Backend + 'a>> {
+        let context = || -> Result<Option<GpuContext>, maamplan::collide::CollideError> {
+            match opening.0 {
+                Some(thread) => thread.join().expect("opening the GPU panicked"),
+                None => GpuContext::open(self == BackendKind::Auto),
+            }
+        };
         Ok(match self {
-            BackendKind::Auto => match GpuContext::open(true) {
+            BackendKind::Auto => match context() {
                 Ok(Some(ctx)) => {
                     let name = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
-                    let b = GpuBackend::new(ctx, scene, GpuOptions::default())?;
+                    let b = GpuBackend::new(ctx, scene, gpu)?;
                     if announce {
                         eprintln!("backend auto: gpu on {name}");
                     }
@@ -180,18 +212,23 @@ impl BackendKind {
                 }
             },
             BackendKind::Gpu => {
-                let ctx = GpuContext::open(false)?.ok_or_else(|| {
+                let ctx = context()?.ok_or_else(|| {
                     UsageError(
                         "--backend gpu: no GPU adapter found: install a Vulkan driver (on Debian/Ubuntu, mesa-vulkan-drivers gives the lavapipe software adapter) or use --backend cpu".into(),
                     )
                 })?;
-                Box::new(GpuBackend::new(ctx, scene, GpuOptions::default())?)
+                Box::new(GpuBackend::new(ctx, scene, gpu)?)
             }
             BackendKind::Cpu => Box::new(CpuBackend::new(scene)),
             BackendKind::Parry => Box::new(ParryBackend::new(scene)?),
         })
     }
 }
+
+/// A GPU context being opened on another thread ([`BackendKind::open`]).
+pub struct Opening(
+    Option<std::thread::JoinHandle<Result<Option<GpuContext>, maamplan::collide::CollideError>>>,
+);
 
 /// The machine of `--machine` (or the built-in one) and the margin to
 /// check at: `--margin`, else the machine file's.

@@ -202,12 +202,15 @@ pub fn run(a: PlanArgs) -> Result<()> {
         ..PlanOptions::default()
     };
     // Stages 1 and 2 need only the toolpath: they run while the scene is
-    // built.
+    // built, and the GPU opens meanwhile.
+    let opening = a.backend.open();
     let (job, prepared) = a
         .scene
         .load_beside(|toolpath| Prepared::new(toolpath, &machine, &opts))?;
     let scene = &job.scene;
-    let backend = a.backend.build(scene, !a.quiet)?;
+    let backend = a
+        .backend
+        .build_with(opening, scene, !a.quiet, Default::default())?;
     let load_s = t0.elapsed().as_secs_f64();
     show.stage_line("load", load_s, None);
     show.note(&scene.head_cache.to_string());

@@ -17,6 +17,7 @@
 //! gpu's bench went from 0.25 to 0.30 of the cpu's poses per second.
 
 use super::Query;
+use rayon::prelude::*;
 
 /// Cells per side of the octahedral map of nozzle axes (16 × 16 cells,
 /// about 11° across).
@@ -29,13 +30,17 @@ const MORTON_BITS: u32 = 10;
 /// by the tip's Morton code, then by index (deterministic).
 pub fn coherent_order(queries: &[Query]) -> Vec<u32> {
     let (lo, scale) = tip_frame(queries);
+    // Keys and sort on all cores: on one core this took a third of a
+    // hardware GPU's bench time (13 ms of 37 for 160,000 poses). The
+    // (key, index) pairs are distinct, so the order is the same however
+    // the sort splits its work.
     let mut keyed: Vec<(u64, u32)> = queries
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, q)| (key(q, lo, scale), i as u32))
         .collect();
-    keyed.sort_unstable();
-    keyed.into_iter().map(|(_, i)| i).collect()
+    keyed.par_sort_unstable();
+    keyed.into_par_iter().map(|(_, i)| i).collect()
 }
 
 /// The lower corner of the batch's tips and the scale that maps the

@@ -29,6 +29,7 @@ use crate::kinematics::Machine;
 use crate::scene::gpu_types::{RESULT_HIT, RESULT_INCOMPLETE};
 use crate::scene::{GpuMotion, GpuMove, GpuParams, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use bytemuck::Pod;
+use rayon::prelude::*;
 use wgpu::util::DeviceExt;
 
 /// Bindings the part nodes and triangles may be split across (keep in sync
@@ -47,13 +48,16 @@ pub struct GpuOptions {
     /// Cap on one storage binding's size in bytes (default: the device's
     /// limit). Tests lower it to exercise split bindings on small scenes.
     pub max_binding_bytes: Option<u64>,
-    /// Queries per dispatch (default: 65,536, within the device's limits).
+    /// Queries per dispatch (default: [`HARDWARE_BATCH`] on a hardware
+    /// adapter, [`SOFTWARE_BATCH`] on a software one, within the device's
+    /// limits).
     pub batch: Option<usize>,
     /// Slots of the candidate list per batch (default: 64 per query, within
     /// the device's limits). Tests lower it to make lists fill.
     pub capacity: Option<u32>,
     /// The most candidates one query hands over in one pass (default
-    /// [`PER_QUERY`]; `u32::MAX`: all of them at once).
+    /// [`HARDWARE_PER_QUERY`] on a hardware adapter, [`PER_QUERY`] on a
+    /// software one; `u32::MAX`: all of them at once).
     pub per_query: Option<u32>,
     /// Whether the walk uses subgroup operations, where the adapter has
     /// them (default: yes): persistent lanes that take the next query when
@@ -67,14 +71,33 @@ pub struct GpuOptions {
     pub subgroup_appends: Option<bool>,
 }
 
-/// Candidates a query hands over per pass by default: a colliding query's
-/// first few pairs (nearer nodes walked first) mostly settle it, so the
-/// rest are never tested; a query they do not settle walks again for the
-/// next few.
+/// Queries per batch on a hardware adapter: an H100 walks 160,000 of
+/// simple_curve's bench mix 1.3× as fast in batches of 262,144 as of
+/// 65,536 (one batch fills more of its 270,000 resident invocations;
+/// BENCHMARKS.md, "On a real GPU").
+pub const HARDWARE_BATCH: usize = 262_144;
+
+/// Queries per batch on a software adapter (lavapipe): its invocations run
+/// a few at a time on the CPU's cores, so a larger batch only delays the
+/// first readback.
+pub const SOFTWARE_BATCH: usize = 65_536;
+
+/// Candidates a query hands over per pass on a hardware adapter. There a
+/// resumed pass costs a round trip more than the walk it saves, and the
+/// extra exact tests run in parallel: on an H100, 160,000 of simple_curve's
+/// bench mix waited 11 ms on the device (5 runs) with 64 against 25 ms
+/// with 16 (4: 69 ms).
+pub const HARDWARE_PER_QUERY: u32 = 64;
+
+/// Candidates a query hands over per pass by default on a software
+/// adapter: a colliding query's first few pairs (nearer nodes walked
+/// first) mostly settle it, so the rest are never tested; a query they do
+/// not settle walks again for the next few.
 pub const PER_QUERY: u32 = 16;
 
 /// What the backend has done since it was built: how often a batch's
-/// candidate list filled and what that cost.
+/// candidate list filled and what that cost, and where the wall time of
+/// its calls went (the host's own work, or waiting for the device).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct GpuStats {
     /// Batches submitted (each: one walk per query, one exact test per
@@ -91,6 +114,12 @@ pub struct GpuStats {
     pub resumed_passes: u64,
     /// Query walks those passes made.
     pub resumed_queries: u64,
+    /// Host time spent preparing work: ordering queries, packing and
+    /// uploading them, encoding and submitting passes, scattering verdicts.
+    pub host: std::time::Duration,
+    /// Host time spent blocked on the device (its results not yet there):
+    /// the device's work that the host's did not hide.
+    pub waiting: std::time::Duration,
 }
 
 impl GpuStats {
@@ -102,6 +131,8 @@ impl GpuStats {
         self.full_lists += more.full_lists;
         self.resumed_passes += more.resumed_passes;
         self.resumed_queries += more.resumed_queries;
+        self.host += more.host;
+        self.waiting += more.waiting;
     }
 }
 
@@ -109,13 +140,15 @@ impl std::fmt::Display for GpuStats {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(
             f,
-            "gpu: {} queries in {} batches, {} exact tests; {} query walk(s) resumed in {} pass(es) (the candidate list full in {}), no batch redone",
+            "gpu: {} queries in {} batches, {} exact tests; {} query walk(s) resumed in {} pass(es) (the candidate list full in {}), no batch redone; host {:.1} ms preparing, {:.1} ms waiting on the device",
             self.queries,
             self.batches,
             self.candidates,
             self.resumed_queries,
             self.resumed_passes,
-            self.full_lists
+            self.full_lists,
+            self.host.as_secs_f64() * 1e3,
+            self.waiting.as_secs_f64() * 1e3,
         )
     }
 }
@@ -163,8 +196,10 @@ pub struct GpuBackend {
     batch: usize,
     capacity: u32,
     per_query: u32,
-    /// Counted by [`Self::settle`], under `busy`.
+    /// Counted by [`Self::settle`] and [`Self::timed`], under `busy`.
     stats: std::sync::Mutex<GpuStats>,
+    /// Nanoseconds [`Self::map_read`] has spent blocked on the device.
+    waited_ns: std::sync::atomic::AtomicU64,
     nodes_per_chunk: u32,
     tris_per_chunk: u32,
     /// Scene bytes resident on the device.
@@ -391,10 +426,19 @@ impl GpuBackend {
 
         let query_size = std::mem::size_of::<GpuQuery>() as u64;
         let max_groups = limits.max_compute_workgroups_per_dimension as u64;
-        let batch = (opts.batch.unwrap_or(65_536) as u64)
+        // A walk hands over at most `per_query` pairs a pass and a full
+        // list only resumes walks, so the list need not hold 64 a query
+        // for every batch size: past the exact dispatch's limit it holds
+        // fewer.
+        let hardware = ctx.summary.hardware;
+        let default_batch = if hardware {
+            HARDWARE_BATCH
+        } else {
+            SOFTWARE_BATCH
+        };
+        let batch = (opts.batch.unwrap_or(default_batch) as u64)
             .min(max_groups * WORKGROUP as u64)
             .min(binding / query_size)
-            .min(max_groups * WORKGROUP as u64 / CANDIDATES_PER_QUERY)
             .max(1);
         let capacity = opts
             .capacity
@@ -520,8 +564,16 @@ impl GpuBackend {
             busy: std::sync::Mutex::new(()),
             batch,
             capacity: capacity as u32,
-            per_query: opts.per_query.unwrap_or(PER_QUERY).max(1),
+            per_query: opts
+                .per_query
+                .unwrap_or(if hardware {
+                    HARDWARE_PER_QUERY
+                } else {
+                    PER_QUERY
+                })
+                .max(1),
             stats: Default::default(),
+            waited_ns: Default::default(),
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
             tris_per_chunk: tris_per_chunk.min(u32::MAX as usize) as u32,
             scene_bytes,
@@ -535,6 +587,34 @@ impl GpuBackend {
     /// The adapter in use.
     pub fn adapter(&self) -> &super::AdapterSummary {
         &self.ctx.summary
+    }
+
+    /// Run `work` (one caller's call) and count its wall time in
+    /// [`GpuStats::host`] and [`GpuStats::waiting`].
+    fn timed<T>(&self, work: impl FnOnce() -> T) -> T {
+        use std::sync::atomic::Ordering::Relaxed;
+        let t0 = std::time::Instant::now();
+        let waited0 = self.waited_ns.load(Relaxed);
+        let out = work();
+        let total = t0.elapsed();
+        let waiting = std::time::Duration::from_nanos(self.waited_ns.load(Relaxed) - waited0);
+        let mut stats = self.stats.lock().unwrap_or_else(|e| e.into_inner());
+        stats.host += total.saturating_sub(waiting);
+        stats.waiting += waiting;
+        out
+    }
+
+    /// Submit `enc`, the time it takes counted as waiting on the device
+    /// (a driver may block here until earlier work is done: lavapipe runs
+    /// a submission's passes before it returns).
+    fn send(&self, enc: wgpu::CommandEncoder) -> wgpu::SubmissionIndex {
+        let t0 = std::time::Instant::now();
+        let index = self.ctx.queue.submit([enc.finish()]);
+        self.waited_ns.fetch_add(
+            t0.elapsed().as_nanos() as u64,
+            std::sync::atomic::Ordering::Relaxed,
+        );
+        index
     }
 
     /// Queries per dispatch.
@@ -566,12 +646,12 @@ impl GpuBackend {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&set.results, 0, Some(batch.len() as u64 * 4));
         self.encode_passes(&mut enc, set, batch.len(), margin_tests(batch));
-        self.ctx.queue.submit([enc.finish()])
+        self.send(enc)
     }
 
     /// Write a pass's scalars and its queries into `set`.
     fn upload(&self, set: &BatchSet, queries: &[Query], params: GpuParams) {
-        let gpu: Vec<GpuQuery> = queries.iter().map(|q| q.to_gpu()).collect();
+        let gpu: Vec<GpuQuery> = queries.par_iter().map(|q| q.to_gpu()).collect();
         let q = &self.ctx.queue;
         q.write_buffer(&set.params, 0, bytemuck::bytes_of(&params));
         q.write_buffer(&set.queries, 0, bytemuck::cast_slice(&gpu));
@@ -585,7 +665,7 @@ impl GpuBackend {
         q.write_buffer(&set.params, 0, bytemuck::bytes_of(&self.params(n, true)));
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.encode_passes(&mut enc, set, n, margins);
-        q.submit([enc.finish()])
+        self.send(enc)
     }
 
     /// The three dispatches of a pass over `n` queries, then the copies of
@@ -714,7 +794,7 @@ impl GpuBackend {
     /// ([`crate::collide::order`]), answered in theirs.
     fn run(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         let order = coherent_order(queries);
-        let sorted: Vec<Query> = order.iter().map(|&i| queries[i as usize]).collect();
+        let sorted: Vec<Query> = order.par_iter().map(|&i| queries[i as usize]).collect();
         let mut out = vec![false; queries.len()];
         for (verdict, &i) in self.run_in_order(&sorted)?.into_iter().zip(&order) {
             out[i as usize] = verdict;
@@ -760,6 +840,16 @@ impl GpuBackend {
             return Err(CollideError::BadMargin(i));
         }
         let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
+        self.timed(|| self.moves_in_batches(machine, moves))
+    }
+
+    /// [`Self::moves_on_device`] once its arguments are checked and the
+    /// buffers are this caller's.
+    fn moves_in_batches(
+        &self,
+        machine: &Machine,
+        moves: &[SampledMove],
+    ) -> Result<Vec<bool>, CollideError> {
         // Batches of consecutive moves, each with its samples' first slot.
         let mut batches: Vec<(Vec<usize>, Vec<GpuMove>, usize)> = Vec::new();
         let mut current: (Vec<usize>, Vec<GpuMove>, usize) = Default::default();
@@ -828,7 +918,7 @@ impl GpuBackend {
         let margins = gm.iter().any(|m| m.margin > 0.0);
         self.encode_passes(&mut enc, set, total, margins);
         self.encode_reduce(&mut enc, set, gm.len());
-        q.submit([enc.finish()])
+        self.send(enc)
     }
 
     /// One motion kernel over `moves` moves.
@@ -874,7 +964,7 @@ impl GpuBackend {
             // verdicts only.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
             self.encode_reduce(&mut enc, set, gm.len());
-            self.ctx.queue.submit([enc.finish()])
+            self.send(enc)
         } else {
             index
         };
@@ -918,7 +1008,7 @@ impl GpuBackend {
         }
         self.encode_readback(&mut enc, set, n);
         enc.copy_buffer_to_buffer(&set.candidates, 0, &pairs, 0, self.capacity as u64 * 8);
-        let index = self.ctx.queue.submit([enc.finish()]);
+        let index = self.send(enc);
         let (words, asked) = self.read(0, n, index)?;
         if asked > self.capacity {
             return Err(CollideError::Unavailable(format!(
@@ -981,7 +1071,7 @@ impl GpuBackend {
         }
         self.encode_exact(&mut enc, set, margin_tests(&queries));
         self.encode_readback(&mut enc, set, n);
-        let index = q.submit([enc.finish()]);
+        let index = self.send(enc);
         let (words, _) = self.read(0, n, index)?;
         Ok(words.iter().map(|&w| w & RESULT_HIT != 0).collect())
     }
@@ -1017,7 +1107,7 @@ impl GpuBackend {
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         self.encode_motion(&mut enc, set, &self.expand, gm.len());
         enc.copy_buffer_to_buffer(&set.queries, 0, &copy, 0, total as u64 * size);
-        let index = q.submit([enc.finish()]);
+        let index = self.send(enc);
         let words = self.map_words(&copy, total * size as usize / 4, Some(index))?;
         Ok(bytemuck::cast_slice::<u32, GpuQuery>(&words).to_vec())
     }
@@ -1067,13 +1157,16 @@ impl GpuBackend {
         slice.map_async(wgpu::MapMode::Read, move |r| {
             let _ = tx.send(r);
         });
-        self.ctx
-            .device
-            .poll(wgpu::PollType::Wait {
-                submission_index: index,
-                timeout: None,
-            })
-            .map_err(|e| CollideError::Unavailable(format!("GPU stopped responding: {e}")))?;
+        let t0 = std::time::Instant::now();
+        let polled = self.ctx.device.poll(wgpu::PollType::Wait {
+            submission_index: index,
+            timeout: None,
+        });
+        self.waited_ns.fetch_add(
+            t0.elapsed().as_nanos() as u64,
+            std::sync::atomic::Ordering::Relaxed,
+        );
+        polled.map_err(|e| CollideError::Unavailable(format!("GPU stopped responding: {e}")))?;
         let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
         rx.recv()
             .map_err(|e| failed(e.to_string()))?
@@ -1099,7 +1192,7 @@ impl Backend for GpuBackend {
         // A panic elsewhere while holding it leaves the buffers as
         // consistent as any other finished call: the poison is ignored.
         let _one_caller = self.busy.lock().unwrap_or_else(|e| e.into_inner());
-        self.run(queries)
+        self.timed(|| self.run(queries))
     }
 
     /// Four batches a call: the two buffer sets overlap compute and
@@ -1109,7 +1202,12 @@ impl Backend for GpuBackend {
     }
 
     fn summary(&self) -> Option<String> {
-        Some(self.stats().to_string())
+        let walk = match (self.subgroups, self.subgroup_appends) {
+            (false, _) => "one query an invocation",
+            (true, false) => "persistent lanes",
+            (true, true) => "persistent lanes, subgroup appends",
+        };
+        Some(format!("{} [batch {}, {walk}]", self.stats(), self.batch))
     }
 
     /// Posed and reduced on the device ([`GpuBackend`]'s motion kernels).

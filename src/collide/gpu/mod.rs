@@ -7,5 +7,7 @@ pub mod collide;
 pub mod context;
 pub mod shaders;
 
-pub use collide::{GpuBackend, GpuOptions, GpuStats, PER_QUERY};
+pub use collide::{
+    GpuBackend, GpuOptions, GpuStats, HARDWARE_BATCH, HARDWARE_PER_QUERY, PER_QUERY, SOFTWARE_BATCH,
+};
 pub use context::{list_adapters, AdapterSummary, GpuContext};
