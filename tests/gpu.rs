@@ -741,8 +741,8 @@ fn query_of(q: &maamplan::scene::GpuQuery) -> Query {
 #[test]
 fn bench_tuning_flags_change_the_walk_not_its_verdicts() {
     // `bench`'s --gpu-* flags reach the backend (its summary names the
-    // batch and the kernel; a share of 2 pairs a pass resumes walks), and
-    // the verdicts stay the cpu's.
+    // batch, the kernel and the order; a share of 2 pairs a pass resumes
+    // walks), and the verdicts stay the cpu's.
     if GpuContext::open(false).expect("opening the GPU").is_none() {
         assert!(
             std::env::var("MAAMPLAN_REQUIRE_GPU").map_or(true, |v| v != "1"),
@@ -766,13 +766,15 @@ fn bench_tuning_flags_change_the_walk_not_its_verdicts() {
         "lane",
         "--gpu-share",
         "2",
+        "--gpu-order",
+        "off",
         "--json",
         json.to_str().unwrap(),
     ]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{stdout}");
     assert!(
-        stdout.contains("[batch 512, one query an invocation]"),
+        stdout.contains("[batch 512, one query an invocation, as given]"),
         "{stdout}"
     );
     assert!(stdout.contains("ms waiting on the device"), "{stdout}");

@@ -47,6 +47,11 @@ pub struct BenchArgs {
     /// undecided pairs walks again.
     #[arg(long, value_name = "PAIRS")]
     gpu_share: Option<u32>,
+    /// Tuning, gpu backend: walk each call's queries in coherent order
+    /// (nozzle axis, then tip position) or as given [default: on software
+    /// adapters only].
+    #[arg(long, value_name = "ON|OFF", value_parser = clap::builder::BoolishValueParser::new())]
+    gpu_order: Option<bool>,
 }
 
 /// How the persistent walk reserves candidate slots (`--gpu-appends`).
@@ -103,6 +108,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             subgroups: a.gpu_walk.map(|w| w == GpuWalk::Persistent),
             subgroup_appends: a.gpu_appends.map(|w| w == GpuAppends::Subgroup),
             per_query: a.gpu_share,
+            coherent: a.gpu_order,
             ..GpuOptions::default()
         };
         let backend = kind.build_with(kind.open(), scene, true, gpu)?;

@@ -15,6 +15,13 @@
 //! nodes, the group as long as its longest, 110 with 16 × 16 axis cells
 //! (8 × 8: 123; 4 × 4: 164; 32 × 32: 110; 64 × 64: 118). On lavapipe the
 //! gpu's bench went from 0.25 to 0.30 of the cpu's poses per second.
+//!
+//! The gpu backend orders on software adapters only
+//! ([`crate::collide::gpu::GpuOptions::coherent`]): on an NVIDIA H100 the
+//! device waited about as long for queries as given (its scheduler hides
+//! a divergent lane behind others), and ordering cost the host more than
+//! that: 20,000 poses ran at 8.0–9.0 M poses/s as given, 5.0–5.5 M
+//! ordered (BENCHMARKS.md, "On a real GPU").
 
 use super::Query;
 use rayon::prelude::*;

@@ -69,6 +69,13 @@ pub struct GpuOptions {
     /// atomics are a loop over the SIMD lanes either way, and there that
     /// kernel ran 2.7 % more instructions on simple_curve's bench mix).
     pub subgroup_appends: Option<bool>,
+    /// Whether each call's queries are walked in coherent order
+    /// ([`crate::collide::order`]; default: on software adapters only).
+    /// On lavapipe a group of 8 lanes walks as long as its longest lane,
+    /// and the order shortened the bench mix's walks by a sixth; on an
+    /// H100 ordering cost the host more than it saved the device (20,000
+    /// poses: 5.0–5.5 M poses/s ordered, 8.0–9.0 M as given).
+    pub coherent: Option<bool>,
 }
 
 /// Queries per batch on a hardware adapter: an H100 walks 160,000 of
@@ -211,6 +218,8 @@ pub struct GpuBackend {
     /// Whether it reserves candidate slots one atomic per subgroup
     /// (`shaders/shared/append_subgroup.wgsl`).
     pub subgroup_appends: bool,
+    /// Whether each call's queries are walked in coherent order.
+    pub coherent: bool,
 }
 
 /// Whether a pass over `queries` needs `collide_exact` with the margin's
@@ -580,6 +589,7 @@ impl GpuBackend {
             bindings_used,
             subgroups,
             subgroup_appends,
+            coherent: opts.coherent.unwrap_or(!hardware),
             ctx,
         })
     }
@@ -793,6 +803,9 @@ impl GpuBackend {
     /// Evaluate `queries`: walked in coherent order
     /// ([`crate::collide::order`]), answered in theirs.
     fn run(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
+        if !self.coherent {
+            return self.run_in_order(queries);
+        }
         let order = coherent_order(queries);
         let sorted: Vec<Query> = order.par_iter().map(|&i| queries[i as usize]).collect();
         let mut out = vec![false; queries.len()];
@@ -1207,7 +1220,12 @@ impl Backend for GpuBackend {
             (true, false) => "persistent lanes",
             (true, true) => "persistent lanes, subgroup appends",
         };
-        Some(format!("{} [batch {}, {walk}]", self.stats(), self.batch))
+        let order = if self.coherent { "" } else { ", as given" };
+        Some(format!(
+            "{} [batch {}, {walk}{order}]",
+            self.stats(),
+            self.batch
+        ))
     }
 
     /// Posed and reduced on the device ([`GpuBackend`]'s motion kernels).
