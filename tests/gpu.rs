@@ -774,7 +774,9 @@ fn bench_tuning_flags_change_the_walk_not_its_verdicts() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{stdout}");
     assert!(
-        stdout.contains("[batch 512, one query an invocation, as given]"),
+        stdout.contains(
+            "[batches of 512, 2 pairs a query a pass, one query an invocation, queries as given]"
+        ),
         "{stdout}"
     );
     assert!(stdout.contains("ms waiting on the device"), "{stdout}");

@@ -1,8 +1,8 @@
-//! `maamplan info`: the GPU adapters wgpu can see, their kind and the limits
-//! that bound batch and scene sizes.
+//! `maamplan info`: the GPU adapters wgpu can see, their kind, the limits
+//! that bound batch and scene sizes, and the gpu backend's settings on each.
 
 use anyhow::Result;
-use maamplan::collide::gpu::list_adapters;
+use maamplan::collide::gpu::{list_adapters, GpuOptions};
 
 /// Run `info`.
 pub fn run() -> Result<()> {
@@ -35,6 +35,7 @@ pub fn run() -> Result<()> {
             l.max_compute_invocations_per_workgroup,
             if a.subgroups { "yes" } else { "no" }
         );
+        println!("    gpu backend here: {}", GpuOptions::default().tuned(a));
     }
     println!("--backend auto uses the first hardware adapter above, else the cpu backend");
     Ok(())

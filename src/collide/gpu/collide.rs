@@ -78,6 +78,70 @@ pub struct GpuOptions {
     pub coherent: Option<bool>,
 }
 
+/// What [`GpuOptions`] come to on one adapter: each setting given, or the
+/// adapter's default (before the device's limits bound the batch).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GpuTuning {
+    /// Queries per batch.
+    pub batch: usize,
+    /// The most candidates a query hands over a pass.
+    pub per_query: u32,
+    /// Persistent lanes (`shaders/traverse_persistent.wgsl`).
+    pub subgroups: bool,
+    /// Candidate slots reserved one atomic per subgroup.
+    pub subgroup_appends: bool,
+    /// Each call's queries walked in coherent order.
+    pub coherent: bool,
+}
+
+impl GpuOptions {
+    /// These options on `adapter`: where one is not given, the default
+    /// for a hardware or a software adapter (measured on an H100 and on
+    /// lavapipe; BENCHMARKS.md).
+    pub fn tuned(&self, adapter: &super::AdapterSummary) -> GpuTuning {
+        let hardware = adapter.hardware;
+        let subgroups = self.subgroups.unwrap_or(true) && adapter.subgroups;
+        GpuTuning {
+            batch: self.batch.unwrap_or(if hardware {
+                HARDWARE_BATCH
+            } else {
+                SOFTWARE_BATCH
+            }),
+            per_query: self
+                .per_query
+                .unwrap_or(if hardware {
+                    HARDWARE_PER_QUERY
+                } else {
+                    PER_QUERY
+                })
+                .max(1),
+            subgroups,
+            subgroup_appends: subgroups && self.subgroup_appends.unwrap_or(hardware),
+            coherent: self.coherent.unwrap_or(!hardware),
+        }
+    }
+}
+
+impl std::fmt::Display for GpuTuning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let walk = match (self.subgroups, self.subgroup_appends) {
+            (false, _) => "one query an invocation",
+            (true, false) => "persistent lanes",
+            (true, true) => "persistent lanes, subgroup appends",
+        };
+        let order = if self.coherent {
+            "coherent order"
+        } else {
+            "queries as given"
+        };
+        write!(
+            f,
+            "batches of {}, {} pairs a query a pass, {walk}, {order}",
+            self.batch, self.per_query
+        )
+    }
+}
+
 /// Queries per batch on a hardware adapter: an H100 walks 160,000 of
 /// simple_curve's bench mix 1.3× as fast in batches of 262,144 as of
 /// 65,536 (one batch fills more of its 270,000 resident invocations;
@@ -397,8 +461,8 @@ impl GpuBackend {
             ("NODE_BINDINGS", bindings_used.0 as f64),
             ("TRI_BINDINGS", bindings_used.1 as f64),
         ];
-        let subgroups = opts.subgroups.unwrap_or(true) && ctx.summary.subgroups;
-        let subgroup_appends = subgroups && opts.subgroup_appends.unwrap_or(ctx.summary.hardware);
+        let tuning = opts.tuned(&ctx.summary);
+        let (subgroups, subgroup_appends) = (tuning.subgroups, tuning.subgroup_appends);
         let traverse_src = match (subgroups, subgroup_appends) {
             (false, _) => COLLIDE_TRAVERSE,
             (true, false) => COLLIDE_TRAVERSE_PERSISTENT,
@@ -439,13 +503,7 @@ impl GpuBackend {
         // list only resumes walks, so the list need not hold 64 a query
         // for every batch size: past the exact dispatch's limit it holds
         // fewer.
-        let hardware = ctx.summary.hardware;
-        let default_batch = if hardware {
-            HARDWARE_BATCH
-        } else {
-            SOFTWARE_BATCH
-        };
-        let batch = (opts.batch.unwrap_or(default_batch) as u64)
+        let batch = (tuning.batch as u64)
             .min(max_groups * WORKGROUP as u64)
             .min(binding / query_size)
             .max(1);
@@ -573,14 +631,7 @@ impl GpuBackend {
             busy: std::sync::Mutex::new(()),
             batch,
             capacity: capacity as u32,
-            per_query: opts
-                .per_query
-                .unwrap_or(if hardware {
-                    HARDWARE_PER_QUERY
-                } else {
-                    PER_QUERY
-                })
-                .max(1),
+            per_query: tuning.per_query,
             stats: Default::default(),
             waited_ns: Default::default(),
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
@@ -589,7 +640,7 @@ impl GpuBackend {
             bindings_used,
             subgroups,
             subgroup_appends,
-            coherent: opts.coherent.unwrap_or(!hardware),
+            coherent: tuning.coherent,
             ctx,
         })
     }
@@ -625,6 +676,18 @@ impl GpuBackend {
             std::sync::atomic::Ordering::Relaxed,
         );
         index
+    }
+
+    /// The settings this backend runs with (its batch within the device's
+    /// limits).
+    pub fn tuning(&self) -> GpuTuning {
+        GpuTuning {
+            batch: self.batch,
+            per_query: self.per_query,
+            subgroups: self.subgroups,
+            subgroup_appends: self.subgroup_appends,
+            coherent: self.coherent,
+        }
     }
 
     /// Queries per dispatch.
@@ -1215,17 +1278,7 @@ impl Backend for GpuBackend {
     }
 
     fn summary(&self) -> Option<String> {
-        let walk = match (self.subgroups, self.subgroup_appends) {
-            (false, _) => "one query an invocation",
-            (true, false) => "persistent lanes",
-            (true, true) => "persistent lanes, subgroup appends",
-        };
-        let order = if self.coherent { "" } else { ", as given" };
-        Some(format!(
-            "{} [batch {}, {walk}{order}]",
-            self.stats(),
-            self.batch
-        ))
+        Some(format!("{} [{}]", self.stats(), self.tuning()))
     }
 
     /// Posed and reduced on the device ([`GpuBackend`]'s motion kernels).
@@ -1235,5 +1288,80 @@ impl Backend for GpuBackend {
         moves: &[SampledMove],
     ) -> Result<Vec<bool>, CollideError> {
         self.moves_on_device(machine, moves)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::AdapterSummary;
+    use super::*;
+
+    fn adapter(hardware: bool, subgroups: bool) -> AdapterSummary {
+        AdapterSummary {
+            name: "test adapter".into(),
+            backend: "Vulkan".into(),
+            device_type: "test".into(),
+            hardware,
+            driver: "test".into(),
+            limits: wgpu::Limits::default(),
+            subgroups,
+        }
+    }
+
+    #[test]
+    fn defaults_follow_the_adapter_and_given_options_win() {
+        let defaults = GpuOptions::default();
+        assert_eq!(
+            defaults.tuned(&adapter(true, true)),
+            GpuTuning {
+                batch: HARDWARE_BATCH,
+                per_query: HARDWARE_PER_QUERY,
+                subgroups: true,
+                subgroup_appends: true,
+                coherent: false,
+            }
+        );
+        assert_eq!(
+            defaults.tuned(&adapter(false, true)),
+            GpuTuning {
+                batch: SOFTWARE_BATCH,
+                per_query: PER_QUERY,
+                subgroups: true,
+                subgroup_appends: false,
+                coherent: true,
+            }
+        );
+        // Without subgroups neither persistent lanes nor subgroup appends,
+        // even when asked for.
+        let asked = GpuOptions {
+            subgroups: Some(true),
+            subgroup_appends: Some(true),
+            ..GpuOptions::default()
+        };
+        let t = asked.tuned(&adapter(true, false));
+        assert!(!t.subgroups && !t.subgroup_appends);
+        // Given settings win over the adapter's; a share of 0 is 1.
+        let given = GpuOptions {
+            batch: Some(7),
+            per_query: Some(0),
+            subgroups: Some(false),
+            subgroup_appends: Some(true),
+            coherent: Some(true),
+            ..GpuOptions::default()
+        };
+        assert_eq!(
+            given.tuned(&adapter(true, true)),
+            GpuTuning {
+                batch: 7,
+                per_query: 1,
+                subgroups: false,
+                subgroup_appends: false,
+                coherent: true,
+            }
+        );
+        assert_eq!(
+            defaults.tuned(&adapter(true, true)).to_string(),
+            "batches of 262144, 64 pairs a query a pass, persistent lanes, subgroup appends, queries as given"
+        );
     }
 }
