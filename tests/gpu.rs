@@ -791,5 +791,8 @@ fn bench_tuning_flags_change_the_walk_not_its_verdicts() {
         serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let results = report["results"].as_array().unwrap();
     assert_eq!(results[1]["disagreements_with_first"], 0, "{stdout}");
+    let summary = results[0]["summary"].as_str().expect("the gpu's summary");
+    assert!(summary.contains("queries as given"), "{summary}");
+    assert!(results[1]["summary"].is_null(), "{stdout}");
     assert!(results[0]["colliding"].as_u64().unwrap() > 0, "{stdout}");
 }

@@ -148,7 +148,8 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 a.backends[0].name()
             )),
         );
-        if let Some(line) = backend.summary() {
+        let summary = backend.summary();
+        if let Some(line) = &summary {
             println!("          {line}");
         }
         results.push(json!({
@@ -160,6 +161,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             "colliding": colliding,
             "disagreements_with_first": disagree,
             "disagreeing_queries": differing.map(|d| d.into_iter().take(100).collect::<Vec<_>>()),
+            "summary": summary,
         }));
         if reference.is_none() {
             reference = Some(verdicts);
