@@ -37,10 +37,10 @@ const MORTON_BITS: u32 = 10;
 /// by the tip's Morton code, then by index (deterministic).
 pub fn coherent_order(queries: &[Query]) -> Vec<u32> {
     let (lo, scale) = tip_frame(queries);
-    // Keys and sort on all cores: on one core this took a third of a
-    // hardware GPU's bench time (13 ms of 37 for 160,000 poses). The
-    // (key, index) pairs are distinct, so the order is the same however
-    // the sort splits its work.
+    // Keys and sort on all cores: on one core of the CI-class machine
+    // ordering 160,000 poses took 13 ms, a third of the 37 ms an H100's
+    // bench run of them took. The (key, index) pairs are distinct, so the
+    // order is the same however the sort splits its work.
     let mut keyed: Vec<(u64, u32)> = queries
         .par_iter()
         .enumerate()
