@@ -16,8 +16,13 @@ use maamplan::scene::{Query, Scene, SceneConfig};
 /// The GPU backend over `scene`, or `None` (skip) when no adapter exists
 /// and the environment does not require one.
 fn gpu(scene: &Scene, opts: GpuOptions) -> Option<GpuBackend> {
+    context().map(|ctx| GpuBackend::new(ctx, scene, opts).expect("GPU backend"))
+}
+
+/// An opened GPU, or `None` (skip) as for [`gpu`].
+fn context() -> Option<GpuContext> {
     match GpuContext::open(false).expect("opening the GPU") {
-        Some(ctx) => Some(GpuBackend::new(ctx, scene, opts).expect("GPU backend")),
+        Some(ctx) => Some(ctx),
         None => {
             if std::env::var("MAAMPLAN_REQUIRE_GPU").is_ok_and(|v| v == "1") {
                 panic!(
@@ -394,8 +399,8 @@ fn full_candidate_lists_resume_the_walks_and_redo_nothing() {
         assert!(
             other.evaluate(&queries).unwrap() == want,
             "a full list changed verdicts (subgroups {}, subgroup appends {})",
-            other.subgroups,
-            other.subgroup_appends
+            other.tuning().subgroups,
+            other.tuning().subgroup_appends
         );
         let os = other.stats();
         assert!(
@@ -471,7 +476,7 @@ fn the_walk_kernel_lists_what_its_cpu_mirror_lists() {
         };
         let offered = g.adapter().subgroups;
         assert_eq!(
-            (g.subgroups, g.subgroup_appends),
+            (g.tuning().subgroups, g.tuning().subgroup_appends),
             (subgroups && offered, appends && subgroups && offered),
             "{kernel} asked"
         );
@@ -743,11 +748,7 @@ fn bench_tuning_flags_change_the_walk_not_its_verdicts() {
     // `bench`'s --gpu-* flags reach the backend (its summary names the
     // batch, the kernel and the order; a share of 2 pairs a pass resumes
     // walks), and the verdicts stay the cpu's.
-    if GpuContext::open(false).expect("opening the GPU").is_none() {
-        assert!(
-            std::env::var("MAAMPLAN_REQUIRE_GPU").map_or(true, |v| v != "1"),
-            "MAAMPLAN_REQUIRE_GPU=1 but no GPU adapter found"
-        );
+    if context().is_none() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -264,9 +264,9 @@ pub struct GpuBackend {
     /// caller at a time (the planner measures the input on another thread
     /// while it plans, and both share this backend).
     busy: std::sync::Mutex<()>,
-    batch: usize,
+    /// What it runs with, the batch within the device's limits.
+    tuning: GpuTuning,
     capacity: u32,
-    per_query: u32,
     /// Counted by [`Self::settle`] and [`Self::timed`], under `busy`.
     stats: std::sync::Mutex<GpuStats>,
     /// Nanoseconds [`Self::map_read`] has spent blocked on the device.
@@ -277,13 +277,6 @@ pub struct GpuBackend {
     pub scene_bytes: u64,
     /// Storage bindings in use for part nodes and part triangles.
     pub bindings_used: (usize, usize),
-    /// Whether the walk runs persistent lanes (subgroups).
-    pub subgroups: bool,
-    /// Whether it reserves candidate slots one atomic per subgroup
-    /// (`shaders/shared/append_subgroup.wgsl`).
-    pub subgroup_appends: bool,
-    /// Whether each call's queries are walked in coherent order.
-    pub coherent: bool,
 }
 
 /// Whether a pass over `queries` needs `collide_exact` with the margin's
@@ -462,8 +455,7 @@ impl GpuBackend {
             ("TRI_BINDINGS", bindings_used.1 as f64),
         ];
         let tuning = opts.tuned(&ctx.summary);
-        let (subgroups, subgroup_appends) = (tuning.subgroups, tuning.subgroup_appends);
-        let traverse_src = match (subgroups, subgroup_appends) {
+        let traverse_src = match (tuning.subgroups, tuning.subgroup_appends) {
             (false, _) => COLLIDE_TRAVERSE,
             (true, false) => COLLIDE_TRAVERSE_PERSISTENT,
             (true, true) => COLLIDE_TRAVERSE_SUBGROUP,
@@ -629,18 +621,14 @@ impl GpuBackend {
             reduce,
             sets,
             busy: std::sync::Mutex::new(()),
-            batch,
+            tuning: GpuTuning { batch, ..tuning },
             capacity: capacity as u32,
-            per_query: tuning.per_query,
             stats: Default::default(),
             waited_ns: Default::default(),
             nodes_per_chunk: nodes_per_chunk.min(u32::MAX as usize) as u32,
             tris_per_chunk: tris_per_chunk.min(u32::MAX as usize) as u32,
             scene_bytes,
             bindings_used,
-            subgroups,
-            subgroup_appends,
-            coherent: tuning.coherent,
             ctx,
         })
     }
@@ -671,28 +659,27 @@ impl GpuBackend {
     fn send(&self, enc: wgpu::CommandEncoder) -> wgpu::SubmissionIndex {
         let t0 = std::time::Instant::now();
         let index = self.ctx.queue.submit([enc.finish()]);
+        self.waited_since(t0);
+        index
+    }
+
+    /// Count the time since `t0` as spent blocked on the device.
+    fn waited_since(&self, t0: std::time::Instant) {
         self.waited_ns.fetch_add(
             t0.elapsed().as_nanos() as u64,
             std::sync::atomic::Ordering::Relaxed,
         );
-        index
     }
 
     /// The settings this backend runs with (its batch within the device's
     /// limits).
     pub fn tuning(&self) -> GpuTuning {
-        GpuTuning {
-            batch: self.batch,
-            per_query: self.per_query,
-            subgroups: self.subgroups,
-            subgroup_appends: self.subgroup_appends,
-            coherent: self.coherent,
-        }
+        self.tuning
     }
 
     /// Queries per dispatch.
     pub fn batch_size(&self) -> usize {
-        self.batch
+        self.tuning.batch
     }
 
     /// What the backend has done so far.
@@ -707,7 +694,7 @@ impl GpuBackend {
             query_count: n as u32,
             capacity: self.capacity,
             resume: resume as u32,
-            per_query: self.per_query,
+            per_query: self.tuning.per_query,
             _pad: [0; 2],
         }
     }
@@ -787,7 +774,13 @@ impl GpuBackend {
     /// readback buffer ([`Self::read`]).
     fn encode_readback(&self, enc: &mut wgpu::CommandEncoder, set: &BatchSet, n: usize) {
         enc.copy_buffer_to_buffer(&set.results, 0, &set.readback, 0, n as u64 * 4);
-        enc.copy_buffer_to_buffer(&set.control, 0, &set.readback, self.batch as u64 * 4, 4);
+        enc.copy_buffer_to_buffer(
+            &set.control,
+            0,
+            &set.readback,
+            self.tuning.batch as u64 * 4,
+            4,
+        );
     }
 
     /// Wait for set `s`'s pass over `n` queries; its result words and the
@@ -799,7 +792,7 @@ impl GpuBackend {
         index: wgpu::SubmissionIndex,
     ) -> Result<(Vec<u32>, u32), CollideError> {
         self.map_read(&self.sets[s].readback, Some(index), |words| {
-            (words[..n].to_vec(), words[self.batch])
+            (words[..n].to_vec(), words[self.tuning.batch])
         })
     }
 
@@ -866,7 +859,7 @@ impl GpuBackend {
     /// Evaluate `queries`: walked in coherent order
     /// ([`crate::collide::order`]), answered in theirs.
     fn run(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
-        if !self.coherent {
+        if !self.tuning.coherent {
             return self.run_in_order(queries);
         }
         let order = coherent_order(queries);
@@ -883,7 +876,7 @@ impl GpuBackend {
     fn run_in_order(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         let mut out = Vec::with_capacity(queries.len());
         let mut pending: Option<(usize, &[Query], wgpu::SubmissionIndex)> = None;
-        for (k, chunk) in queries.chunks(self.batch).enumerate() {
+        for (k, chunk) in queries.chunks(self.tuning.batch).enumerate() {
             let s = k % 2;
             let index = self.submit(s, chunk);
             if let Some((ps, pb, pi)) = pending.take() {
@@ -934,13 +927,13 @@ impl GpuBackend {
             if count == 0 {
                 continue;
             }
-            if count > self.batch {
+            if count > self.tuning.batch {
                 return Err(CollideError::Unavailable(format!(
                     "a move of {count} samples exceeds one batch of {}",
-                    self.batch
+                    self.tuning.batch
                 )));
             }
-            if current.2 + count > self.batch {
+            if current.2 + count > self.tuning.batch {
                 batches.push(std::mem::take(&mut current));
             }
             current.1.push(gpu_move(mv, current.2 as u32));
@@ -1190,10 +1183,10 @@ impl GpuBackend {
 
     /// At most one batch.
     fn fits(&self, n: usize) -> Result<(), CollideError> {
-        if n > self.batch {
+        if n > self.tuning.batch {
             return Err(CollideError::Unavailable(format!(
                 "{n} queries exceed one batch of {}",
-                self.batch
+                self.tuning.batch
             )));
         }
         Ok(())
@@ -1238,10 +1231,7 @@ impl GpuBackend {
             submission_index: index,
             timeout: None,
         });
-        self.waited_ns.fetch_add(
-            t0.elapsed().as_nanos() as u64,
-            std::sync::atomic::Ordering::Relaxed,
-        );
+        self.waited_since(t0);
         polled.map_err(|e| CollideError::Unavailable(format!("GPU stopped responding: {e}")))?;
         let failed = |e: String| CollideError::Unavailable(format!("GPU readback failed: {e}"));
         rx.recv()
@@ -1274,7 +1264,7 @@ impl Backend for GpuBackend {
     /// Four batches a call: the two buffer sets overlap compute and
     /// readback within one call, not across calls.
     fn batch_hint(&self) -> usize {
-        4 * self.batch
+        4 * self.tuning.batch
     }
 
     fn summary(&self) -> Option<String> {
