@@ -9,7 +9,10 @@
 //! (the `MARGIN_TESTS` override), the latter for batches whose queries all
 //! have margin 0, so those cost what they did before margins existed on
 //! lavapipe too (it runs a branch's body even when no invocation takes
-//! it). Two sets of per-batch buffers alternate, so the next batch
+//! it). That variant is compiled when a batch first needs it: the planner
+//! keeps a margin in every question, so its plans never do (lavapipe
+//! spent 0.15–0.19 s of a core compiling it while simple_curve's scene
+//! loaded). Two sets of per-batch buffers alternate, so the next batch
 //! computes while the previous one is read back. When a batch's
 //! candidates do not all fit the list, the queries that lost some are
 //! walked again (`resume`): each hands over the pairs after the ones it
@@ -253,8 +256,13 @@ pub struct GpuBackend {
     prepare: wgpu::ComputePipeline,
     /// `collide_exact` with the margin's distance tests.
     exact: wgpu::ComputePipeline,
-    /// `collide_exact` without them, for batches at margin 0.
-    exact_touch: wgpu::ComputePipeline,
+    /// `collide_exact` without them, for batches at margin 0: compiled
+    /// when the first such batch comes ([`Self::exact_touch`]).
+    exact_touch: std::sync::OnceLock<wgpu::ComputePipeline>,
+    /// What compiling `exact_touch` needs: the kernels' layout and the
+    /// scene's binding counts.
+    layout: wgpu::PipelineLayout,
+    filled: [(&'static str, f64); 2],
     /// `collide_expand`: a batch of moves' samples posed on the device.
     expand: wgpu::ComputePipeline,
     /// `collide_reduce`: one verdict per move from its samples'.
@@ -469,25 +477,18 @@ impl GpuBackend {
         };
         // Each pipeline compiles its shader (on lavapipe, LLVM: 0.53 s for
         // the six in a row on simple_curve's load); they are independent,
-        // so they compile side by side.
-        let (((traverse, prepare), (exact, exact_touch)), (expand, reduce)) =
-            std::thread::scope(|t| {
-                let traverse = t.spawn(|| pipeline("collide_traverse.wgsl", traverse_src, None));
-                let exact = t.spawn(|| pipeline("collide_exact.wgsl", COLLIDE_EXACT, Some(true)));
-                let exact_touch = t.spawn(|| {
-                    pipeline("collide_exact.wgsl (margin 0)", COLLIDE_EXACT, Some(false))
-                });
-                let prepare = pipeline("collide_prepare.wgsl", COLLIDE_PREPARE, None);
-                let expand = motion_pipeline("collide_expand.wgsl", COLLIDE_EXPAND);
-                let reduce = motion_pipeline("collide_reduce.wgsl", COLLIDE_REDUCE);
-                let join = |h: std::thread::ScopedJoinHandle<'_, wgpu::ComputePipeline>| {
-                    h.join().expect("a pipeline's compilation panicked")
-                };
-                (
-                    ((join(traverse), prepare), (join(exact), join(exact_touch))),
-                    (expand, reduce),
-                )
-            });
+        // so they compile side by side. (`exact_touch`: at its first use.)
+        let ((traverse, prepare), (exact, (expand, reduce))) = std::thread::scope(|t| {
+            let traverse = t.spawn(|| pipeline("collide_traverse.wgsl", traverse_src, None));
+            let exact = t.spawn(|| pipeline("collide_exact.wgsl", COLLIDE_EXACT, Some(true)));
+            let prepare = pipeline("collide_prepare.wgsl", COLLIDE_PREPARE, None);
+            let expand = motion_pipeline("collide_expand.wgsl", COLLIDE_EXPAND);
+            let reduce = motion_pipeline("collide_reduce.wgsl", COLLIDE_REDUCE);
+            let join = |h: std::thread::ScopedJoinHandle<'_, wgpu::ComputePipeline>| {
+                h.join().expect("a pipeline's compilation panicked")
+            };
+            ((join(traverse), prepare), (join(exact), (expand, reduce)))
+        });
 
         let query_size = std::mem::size_of::<GpuQuery>() as u64;
         let max_groups = limits.max_compute_workgroups_per_dimension as u64;
@@ -616,7 +617,9 @@ impl GpuBackend {
             traverse,
             prepare,
             exact,
-            exact_touch,
+            exact_touch: std::sync::OnceLock::new(),
+            layout: pipeline_layout,
+            filled,
             expand,
             reduce,
             sets,
@@ -630,6 +633,21 @@ impl GpuBackend {
             scene_bytes,
             bindings_used,
             ctx,
+        })
+    }
+
+    /// `collide_exact` without the margin's tests, compiled on first use.
+    fn exact_touch(&self) -> &wgpu::ComputePipeline {
+        self.exact_touch.get_or_init(|| {
+            let mut constants = self.filled.to_vec();
+            constants.push(("MARGIN_TESTS", 0.0));
+            compute_pipeline(
+                &self.ctx.device,
+                &self.layout,
+                "collide_exact.wgsl (margin 0)",
+                COLLIDE_EXACT,
+                &constants,
+            )
         })
     }
 
@@ -765,7 +783,7 @@ impl GpuBackend {
         pass.set_pipeline(if margins {
             &self.exact
         } else {
-            &self.exact_touch
+            self.exact_touch()
         });
         pass.dispatch_workgroups_indirect(&set.indirect, 0);
     }
