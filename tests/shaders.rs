@@ -12,14 +12,16 @@ fn every_shader_validates() {
     for (name, src) in ALL {
         let module = naga::front::wgsl::parse_str(src)
             .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
-        // Only the kernels built for adapters with subgroups may use them.
+        // Only the kernels built for adapters with subgroups may use them;
+        // all may unpack halves (adapters are chosen for it, context.rs).
+        let halves = Capabilities::SHADER_FLOAT16_IN_FLOAT32;
         let mut v = if name.contains("(subgroups)") {
-            let mut v = Validator::new(ValidationFlags::all(), Capabilities::SUBGROUP);
+            let mut v = Validator::new(ValidationFlags::all(), Capabilities::SUBGROUP | halves);
             v.subgroup_stages(ShaderStages::COMPUTE);
             v.subgroup_operations(SubgroupOperationSet::all());
             v
         } else {
-            Validator::new(ValidationFlags::all(), Capabilities::default())
+            Validator::new(ValidationFlags::all(), halves)
         };
         v.validate(&module)
             .unwrap_or_else(|e| panic!("{name}: {e:?}"));

@@ -41,13 +41,14 @@ struct Control {
 @group(0) @binding(4) var<storage, read> head_nodes: array<Node>;
 @group(0) @binding(5) var<storage, read> head_tris: array<Triangle>;
 @group(0) @binding(6) var<storage, read> head_ray_tris: array<Triangle>;
-// The head's grids, support map and hull planes, one f32 array read four
-// at a time: a plane (n, h) is one read (`grid4`), as is any value
-// (`grid_at`). On lavapipe every read with a per-query index is a loop
+// The head's grids, support map and hull planes, one array of 32-bit words
+// read four at a time: a plane (n, h) is one read (`grid4`), as is any
+// value (`grid_at`) or a support map's pair of halves (`grid_word`). Words,
+// not f32: a pair of halves is no f32 a driver must keep bit for bit. On lavapipe every read with a per-query index is a loop
 // over the SIMD lanes; a plane read as one vec4 instead of four floats,
 // and classify reading one grid instead of two, took 11 % of the walk's
 // instructions on simple_curve's bench mix.
-@group(0) @binding(7) var<storage, read> grid: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> grid: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read> part_nodes0: array<PartNode>;
 @group(0) @binding(9) var<storage, read> part_nodes1: array<PartNode>;
 @group(0) @binding(10) var<storage, read> part_tris0: array<Triangle>;
@@ -103,12 +104,17 @@ fn part_tri(i: u32) -> Triangle {
 
 // The head grid's value at i (an index into it as f32s, as in cpu.rs).
 fn grid_at(i: u32) -> f32 {
+    return bitcast<f32>(grid[i >> 2u][i & 3u]);
+}
+
+// The head grid's word at i, as stored.
+fn grid_word(i: u32) -> u32 {
     return grid[i >> 2u][i & 3u];
 }
 
 // The four values of the head grid from i, a multiple of 4 (a hull plane).
 fn grid4(i: u32) -> vec4<f32> {
-    return grid[i >> 2u];
+    return bitcast<vec4<f32>>(grid[i >> 2u]);
 }
 
 fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
@@ -232,9 +238,9 @@ fn slab_gap(q: Query, node: PartNode) -> f32 {
         q.rows[1].x * n.x + q.rows[1].y * n.y + q.rows[1].z * n.z,
         q.rows[2].x * n.x + q.rows[2].y * n.y + q.rows[2].z * n.z,
     );
-    let below = grid_at(head.support_offset + support_cell(-nh));
-    let above = grid_at(head.support_offset + support_cell(nh));
-    return max(-below - hi, lo - above);
+    // The bounds of h(nh) and h(-nh) (slab.rs `support_pairs`).
+    let support = unpack2x16float(grid_word(head.support_offset + support_cell(nh)));
+    return max(-support.y - hi, lo - support.x);
 }
 
 // cpu.rs `node_hull_clear`: the node farther than margin from the head,

@@ -170,7 +170,8 @@ pub struct GpuHeadParams {
     pub far_inv_cell: f32,
     /// Index of the support map's first cell in the grid buffer (after
     /// the far grid): upper bounds of the head's support function per
-    /// cube-map cell, `scene::slab::SUPPORT_SIDE`² cells a face.
+    /// cube-map cell, `scene::slab::SUPPORT_SIDE`² cells a face, one word
+    /// a cell for both `h(u)` and `h(−u)` (`scene::slab::support_pairs`).
     pub support_offset: u32,
     /// Index of the hull planes' first cell in the grid buffer (after the
     /// support map): four floats a cell, `n` and `h` (`scene::hull_plane`).

@@ -137,7 +137,7 @@ impl Head {
         let far_offset = grid.len() as u32;
         grid.extend(far_grid(bvh, &aabb, far_origin, far_cell, far_dims));
         let support_offset = grid.len() as u32;
-        grid.extend(super::slab::support_map(&mesh.vertices));
+        grid.extend(super::slab::support_pairs(&mesh.vertices));
         // The planes start on a 16-byte boundary and the grid ends on one:
         // the kernels read a plane as one vec4 (`grid4`).
         grid.resize(grid.len().next_multiple_of(4), 0.0);

@@ -7,7 +7,9 @@
 //! `n` (the dominant axis of its triangles' normals, whichever way they
 //! are wound) and the interval `[lo, hi]` of `n · (x − centre)` over its
 //! vertices — and the head keeps its support function `h(u) = max u · x`
-//! (head frame) as a cube map of upper bounds ([`support_map`]). A node
+//! (head frame) as a cube map of upper bounds ([`support_map`]), each
+//! cell's word holding the bounds of both `h(u)` and `h(−u)`
+//! ([`support_pairs`]): the test reads one word for both sides. A node
 //! lies wholly on one side of the head, farther than the margin, when its
 //! interval along `n` ends `margin` short of the head's `[−h(−n), h(n)]`
 //! (`collide::cpu::slab_clear`). Only slabs thinner than half the node's
@@ -230,6 +232,51 @@ pub fn support_cell(u: [f32; 3]) -> u32 {
     (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
 }
 
+/// The support map as the grid buffer holds it: per cube-map cell `c`,
+/// one word with upper bounds of `h(u)` (low half) and of `h(−u)` (high
+/// half) for every `u` whose cell is `c` ([`support_map`] of the vertices
+/// and of their mirror image), each an IEEE half rounded up
+/// ([`half_at_least`]: at most 1/1024 of the value, 0.06 mm at a head's
+/// 100 mm), stored as the bits of an f32. The slab test needs both sides
+/// of the head along a direction; as two cells of f32 it read two words,
+/// and on lavapipe each read with a per-query index is a loop over the
+/// SIMD lanes (a read is 7 % of a node test's instructions there).
+/// Rounding up only loosens the test; what it culls is still clear.
+pub fn support_pairs(vertices: &[[f32; 3]]) -> Vec<f32> {
+    let mirrored: Vec<[f32; 3]> = vertices.iter().map(|v| v.map(|x| -x)).collect();
+    let (up, down) = rayon::join(|| support_map(vertices), || support_map(&mirrored));
+    up.iter()
+        .zip(&down)
+        .map(|(&u, &d)| f32::from_bits(half_at_least(u) as u32 | (half_at_least(d) as u32) << 16))
+        .collect()
+}
+
+/// A word of [`support_pairs`] as the kernels read it (WGSL's
+/// `unpack2x16float`, exact): the bounds of `h(u)` and `h(−u)`.
+#[inline(always)]
+pub fn support_pair(word: f32) -> [f32; 2] {
+    let w = word.to_bits();
+    [
+        half::f16::from_bits(w as u16).to_f32(),
+        half::f16::from_bits((w >> 16) as u16).to_f32(),
+    ]
+}
+
+/// The bits of the least IEEE half at least `x` (not NaN).
+pub fn half_at_least(x: f32) -> u16 {
+    let h = half::f16::from_f32(x);
+    if h.to_f32() >= x {
+        return h.to_bits();
+    }
+    // One step up: a positive half's magnitude grows with its bits, a
+    // negative one's shrinks (−0 steps to the least positive).
+    match h.to_bits() {
+        0x8000 => 1,
+        b if b & 0x8000 != 0 => b - 1,
+        b => b + 1,
+    }
+}
+
 /// Upper bounds of the support function `max u · v` over `vertices`, per
 /// cube-map cell, for every unit `u` whose cell is that one or a
 /// neighbour across a rounding (each cell's cone is widened).
@@ -365,6 +412,79 @@ mod tests {
                 "{u:?}: {got} ≫ {truth}"
             );
         }
+    }
+
+    /// The grid's words hold, for each direction, bounds of the support
+    /// on both sides — `h(u)` and `h(−u)` read from `u`'s cell — at least
+    /// the true ones (a plain loop, f64) and at most a half's rounding
+    /// above the f32 map's.
+    #[test]
+    fn support_pairs_bound_both_sides() {
+        let mut next = rng(0x51ab_5eed_0bad_cafe);
+        let verts: Vec<[f32; 3]> = (0..300)
+            .map(|_| {
+                let d = unit([next() - 0.5, next() - 0.5, next() - 0.3]);
+                let r = 60.0 * next();
+                [
+                    (d[0] * r) as f32,
+                    (d[1] * r) as f32,
+                    (d[2] * r) as f32 + 0.2,
+                ]
+            })
+            .collect();
+        let pairs = support_pairs(&verts);
+        let map = support_map(&verts);
+        let support = |u: [f64; 3]| {
+            verts
+                .iter()
+                .map(|v| dot(u, v.map(|x| x as f64)))
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let mut tight = 0;
+        for _ in 0..20_000 {
+            let u = unit([next() - 0.5, next() - 0.5, next() - 0.5]);
+            let cell = support_cell(u.map(|x| x as f32)) as usize;
+            let [up, down] = support_pair(pairs[cell]);
+            assert!(up as f64 >= support(u) - 1e-5, "{u:?}: h(u) {up}");
+            assert!(
+                down as f64 >= support(u.map(|x| -x)) - 1e-5,
+                "{u:?}: h(-u) {down}"
+            );
+            assert!(up >= map[cell] && up - map[cell] <= map[cell].abs() / 1024.0 + 1e-6);
+            tight += (up == map[cell]) as usize;
+        }
+        assert!(
+            tight < 20_000,
+            "every bound exactly a half: the test shows nothing"
+        );
+    }
+
+    /// `half_at_least` is the least half at least its argument.
+    #[test]
+    fn halves_round_up() {
+        let mut next = rng(0x0123_4567_89ab_cdef);
+        for k in 0..100_000 {
+            let x = match k % 4 {
+                0 => (next() as f32 - 0.5) * 200.0,
+                1 => (next() as f32 - 0.5) * 1e-3,
+                2 => -(next() as f32) * 5e-8,
+                _ => (next() as f32) * 1e4,
+            };
+            let bits = half_at_least(x);
+            let h = half::f16::from_bits(bits).to_f32();
+            assert!(h >= x, "{x}: {h}");
+            // The half one step below it, towards −∞.
+            let down = match bits {
+                0 => 0x8001,
+                b if b & 0x8000 != 0 => b + 1,
+                b => b - 1,
+            };
+            let prev = half::f16::from_bits(down).to_f32();
+            assert!(prev < x, "{x}: {h} is not the least ({prev} is not below)");
+        }
+        assert_eq!(half_at_least(0.0), 0);
+        assert_eq!(half::f16::from_bits(half_at_least(1.0)).to_f32(), 1.0);
+        assert!(half::f16::from_bits(half_at_least(1.0001)).to_f32() > 1.0);
     }
 
     /// Every vertex below a node lies inside its slab as a reader decodes

@@ -41,7 +41,7 @@ use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::TriPlane;
 use crate::geometry::tri_tri_distance::{plane_separates, tri_tri_closer_than};
 use crate::geometry::{dot, length, vmax, vmin, V3};
-use crate::scene::slab::{oct_decode, support_cell, unpack_snorm2x16};
+use crate::scene::slab::{oct_decode, support_cell, support_pair, unpack_snorm2x16};
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 use rayon::prelude::*;
 
@@ -373,8 +373,7 @@ pub fn slab_gap(h: &GpuHeadParams, grid: &[f32], q: &GpuQuery, node: &GpuPartNod
         q.rows[1][0] * n[0] + q.rows[1][1] * n[1] + q.rows[1][2] * n[2],
         q.rows[2][0] * n[0] + q.rows[2][1] * n[1] + q.rows[2][2] * n[2],
     ];
-    let below = grid[(h.support_offset + support_cell([-nh[0], -nh[1], -nh[2]])) as usize];
-    let above = grid[(h.support_offset + support_cell(nh)) as usize];
+    let [above, below] = support_pair(grid[(h.support_offset + support_cell(nh)) as usize]);
     (-below - hi).max(lo - above)
 }
 

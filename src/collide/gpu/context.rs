@@ -72,7 +72,9 @@ fn summary(a: &wgpu::Adapter) -> AdapterSummary {
 }
 
 /// Compute-capable adapters (filtered by `WGPU_BACKEND` and
-/// `WGPU_ADAPTER_NAME`), best first.
+/// `WGPU_ADAPTER_NAME`), best first. The kernels also read halves
+/// (`unpack2x16float`, the head's support map): every Vulkan, Metal and
+/// DX12 adapter can; wgpu's GL ES ones may not.
 fn adapters() -> Vec<wgpu::Adapter> {
     let inst = instance();
     let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
@@ -82,9 +84,9 @@ fn adapters() -> Vec<wgpu::Adapter> {
         list.retain(|a| a.get_info().name.to_lowercase().contains(&want));
     }
     list.retain(|a| {
-        a.get_downlevel_capabilities()
-            .flags
-            .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
+        a.get_downlevel_capabilities().flags.contains(
+            wgpu::DownlevelFlags::COMPUTE_SHADERS | wgpu::DownlevelFlags::SHADER_F16_IN_F32,
+        )
     });
     list.sort_by_key(|a| rank(a.get_info().device_type));
     list
