@@ -43,11 +43,13 @@ struct Control {
 @group(0) @binding(6) var<storage, read> head_ray_tris: array<Triangle>;
 // The head's grids, support map and hull planes, one array of 32-bit words
 // read four at a time: a plane (n, h) is one read (`grid4`), as is any
-// value (`grid_at`) or a support map's pair of halves (`grid_word`). Words,
-// not f32: a pair of halves is no f32 a driver must keep bit for bit. On lavapipe every read with a per-query index is a loop
-// over the SIMD lanes; a plane read as one vec4 instead of four floats,
-// and classify reading one grid instead of two, took 11 % of the walk's
-// instructions on simple_curve's bench mix.
+// value (`grid_at`) or a support map's pair of halves (`grid_word`).
+// Words, not f32: a pair of halves is no f32 a driver must keep bit for
+// bit. On lavapipe every read with a per-query index is a loop over the
+// SIMD lanes; a plane read as one vec4 instead of four floats, and
+// classify reading one grid instead of two, took 11 % of the walk's
+// instructions on simple_curve's bench mix, and the support map's two
+// sides in one word 3.7 % more.
 @group(0) @binding(7) var<storage, read> grid: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read> part_nodes0: array<PartNode>;
 @group(0) @binding(9) var<storage, read> part_nodes1: array<PartNode>;
