@@ -45,7 +45,7 @@ plan() {
   }
   grep -E '^stage (load|columns|graph|input)|gpu:|planned in' "$TMP/$name-$backend.log"
 }
-same=0
+status=0
 for k in $(seq "$ROUNDS"); do
   for row in "simple_curve $D/simple_curve" "tilted $D/simple_curve --tilt 50" \
     "freeform $D/freeform" "dome_cut $D/dome_cut"; do
@@ -61,8 +61,8 @@ for k in $(seq "$ROUNDS"); do
       echo "$name: gpu plan == cpu plan"
     else
       echo "$name: gpu plan DIFFERS from the cpu's"
-      same=1
+      status=1
     fi
   done
 done
-exit $same
+exit $status

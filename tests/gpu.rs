@@ -21,18 +21,14 @@ fn gpu(scene: &Scene, opts: GpuOptions) -> Option<GpuBackend> {
 
 /// An opened GPU, or `None` (skip) as for [`gpu`].
 fn context() -> Option<GpuContext> {
-    match GpuContext::open(false).expect("opening the GPU") {
-        Some(ctx) => Some(ctx),
-        None => {
-            if std::env::var("MAAMPLAN_REQUIRE_GPU").is_ok_and(|v| v == "1") {
-                panic!(
-                    "MAAMPLAN_REQUIRE_GPU=1 but no GPU adapter found: install mesa-vulkan-drivers"
-                );
-            }
-            eprintln!("skipping: no Vulkan adapter (install mesa-vulkan-drivers for lavapipe)");
-            None
+    let ctx = GpuContext::open(false).expect("opening the GPU");
+    if ctx.is_none() {
+        if std::env::var("MAAMPLAN_REQUIRE_GPU").is_ok_and(|v| v == "1") {
+            panic!("MAAMPLAN_REQUIRE_GPU=1 but no GPU adapter found: install mesa-vulkan-drivers");
         }
+        eprintln!("skipping: no Vulkan adapter (install mesa-vulkan-drivers for lavapipe)");
     }
+    ctx
 }
 
 /// GPU and CPU verdicts agree, except near-contacts (the head's surface

@@ -23,10 +23,9 @@
 //! leaves no cut.
 
 use super::cpu::{
-    grid_cell, leaf_hit, node_hull_gap, slab_gap, sphere_margin, to_head, SceneView, NO_TRIANGLE,
+    grid_sample, leaf_hit, node_hull_gap, slab_gap, sphere_margin, to_head, SceneView, NO_TRIANGLE,
     STACK_SIZE,
 };
-use crate::geometry::aabb::point_box_distance;
 use crate::geometry::{length, V3};
 use crate::scene::{GpuHeadParams, GpuQuery};
 
@@ -208,18 +207,10 @@ fn walk(
 /// outside (`v − |c − centre| − r`, or the head box's distance beyond
 /// the grids; negative when nothing is known).
 fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f32) {
-    let (v, origin, cell, ijk) =
-        if let Some(ijk) = grid_cell(c, h.grid_origin, h.inv_cell, h.grid_dims) {
-            let [nx, ny, _] = h.grid_dims;
-            let v = grid[((ijk[2] * ny + ijk[1]) * nx + ijk[0]) as usize];
-            (v, h.grid_origin, h.cell, ijk)
-        } else if let Some(ijk) = grid_cell(c, h.far_origin, h.far_inv_cell, h.far_dims) {
-            let [nx, ny, _] = h.far_dims;
-            let v = grid[(h.far_offset + (ijk[2] * ny + ijk[1]) * nx + ijk[0]) as usize];
-            (v, h.far_origin, h.far_cell, ijk)
-        } else {
-            return (false, point_box_distance(c, h.aabb_min, h.aabb_max) - r);
-        };
+    let g = grid_sample(h, grid, c);
+    let (v, Some((ijk, origin, cell))) = (g.v, g.cell) else {
+        return (false, g.v - r);
+    };
     let d = [
         c[0] - (origin[0] + (ijk[0] as f32 + 0.5) * cell),
         c[1] - (origin[1] + (ijk[1] as f32 + 0.5) * cell),

@@ -188,7 +188,7 @@ pub struct GridSample {
     pub v: f32,
     /// The cell holding the point, its grid's origin and cell size; `None`
     /// beyond both grids.
-    cell: Option<([u32; 3], V3, f32)>,
+    pub(crate) cell: Option<([u32; 3], V3, f32)>,
 }
 
 /// The head's grids at `c` (head frame), one grid read (the kernels'

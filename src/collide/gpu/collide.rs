@@ -319,6 +319,24 @@ fn compute_pipeline(
     })
 }
 
+/// A `collide_*` kernel's pipeline for a scene filling the bindings
+/// `filled` says (`NODE_BINDINGS`, `TRI_BINDINGS`), with the exact tests'
+/// `MARGIN_TESTS` override set where `margin_tests` gives it.
+fn scene_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    filled: [(&str, f64); 2],
+    label: &str,
+    src: &str,
+    margin_tests: Option<bool>,
+) -> wgpu::ComputePipeline {
+    let mut constants = filled.to_vec();
+    if let Some(on) = margin_tests {
+        constants.push(("MARGIN_TESTS", on as u8 as f64));
+    }
+    compute_pipeline(device, layout, label, src, &constants)
+}
+
 /// Split `data` into `chunks` pieces of `per` elements (empty pieces get one
 /// default element so every binding is valid).
 fn chunked<T: Pod + Default>(data: &[T], per: usize, chunks: usize) -> Vec<Vec<T>> {
@@ -469,11 +487,7 @@ impl GpuBackend {
             (true, true) => COLLIDE_TRAVERSE_SUBGROUP,
         };
         let pipeline = |label: &str, src: &str, margin_tests: Option<bool>| {
-            let mut constants = filled.to_vec();
-            if let Some(on) = margin_tests {
-                constants.push(("MARGIN_TESTS", on as u8 as f64));
-            }
-            compute_pipeline(device, &pipeline_layout, label, src, &constants)
+            scene_pipeline(device, &pipeline_layout, filled, label, src, margin_tests)
         };
         // Each pipeline compiles its shader (on lavapipe, LLVM: 0.53 s for
         // the six in a row on simple_curve's load); they are independent,
@@ -639,14 +653,13 @@ impl GpuBackend {
     /// `collide_exact` without the margin's tests, compiled on first use.
     fn exact_touch(&self) -> &wgpu::ComputePipeline {
         self.exact_touch.get_or_init(|| {
-            let mut constants = self.filled.to_vec();
-            constants.push(("MARGIN_TESTS", 0.0));
-            compute_pipeline(
+            scene_pipeline(
                 &self.ctx.device,
                 &self.layout,
+                self.filled,
                 "collide_exact.wgsl (margin 0)",
                 COLLIDE_EXACT,
-                &constants,
+                Some(false),
             )
         })
     }
