@@ -1,7 +1,9 @@
 //! `maamplan bench`: poses per second of several backends on the same
 //! queries, in one run, with their colliding counts side by side.
 
-use super::{evaluate_with_progress, progress, write_json, BackendKind, SceneArgs, UsageError};
+use super::{
+    evaluate_with_progress, progress, write_json, BackendKind, Opening, SceneArgs, UsageError,
+};
 use anyhow::Result;
 use clap::Args;
 use maamplan::collide::gpu::GpuOptions;
@@ -111,7 +113,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
             coherent: a.gpu_order,
             ..GpuOptions::default()
         };
-        let backend = kind.build_with(kind.open(), scene, true, gpu)?;
+        let backend = kind.build_with(Opening::none(), scene, true, gpu)?;
         let setup = t0.elapsed().as_secs_f64();
         // Repeat short runs (at least 2 s or 5 runs) and keep the median.
         let mut times = Vec::new();

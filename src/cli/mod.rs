@@ -155,7 +155,7 @@ impl BackendKind {
 
     /// Build the backend over `scene`; `announce` says on stderr what `auto` chose.
     pub fn build<'a>(self, scene: &'a Scene, announce: bool) -> Result<Box<dyn Backend + 'a>> {
-        self.build_with(self.open(), scene, announce, GpuOptions::default())
+        self.build_with(Opening::none(), scene, announce, GpuOptions::default())
     }
 
     /// Start opening the GPU this backend needs (none for cpu and parry) on
@@ -172,8 +172,9 @@ impl BackendKind {
         })))
     }
 
-    /// [`Self::build`] with the GPU `opening` (from [`Self::open`]), the gpu
-    /// backend tuned by `gpu` (`bench`'s tuning flags).
+    /// [`Self::build`] with the GPU `opening` ([`Self::open`], or
+    /// [`Opening::none`]), the gpu backend tuned by `gpu` (`bench`'s
+    /// tuning flags).
     pub fn build_with<'a>(
         self,
         opening: Opening,
@@ -225,10 +226,18 @@ impl BackendKind {
     }
 }
 
-/// A GPU context being opened on another thread ([`BackendKind::open`]).
+/// A GPU context being opened on another thread ([`BackendKind::open`]),
+/// or none: then [`BackendKind::build_with`] opens the GPU it needs itself.
 pub struct Opening(
     Option<std::thread::JoinHandle<Result<Option<GpuContext>, maamplan::collide::CollideError>>>,
 );
+
+impl Opening {
+    /// Nothing opened ahead (a caller with no loading to overlap).
+    pub fn none() -> Self {
+        Opening(None)
+    }
+}
 
 /// The machine of `--machine` (or the built-in one) and the margin to
 /// check at: `--margin`, else the machine file's.
