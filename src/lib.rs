@@ -28,6 +28,7 @@ pub mod io;
 pub mod job;
 pub mod kinematics;
 pub mod plan;
+pub mod prove;
 pub mod report;
 pub mod scene;
 pub mod simulate;

@@ -46,7 +46,7 @@ pub(super) enum Status {
     /// Within the pose margin of material: never on a path.
     Hit,
     /// A waypoint's own configuration that falls short of what the beads
-    /// to its neighbours need of it ([`Prover::poses_clear`]: it grazes or
+    /// to its neighbours need of it ([`Prover::poses_short_of_need`]: it grazes or
     /// collides, and is not asked at the pose margin): its waypoint gets
     /// variants as if it collided, and it stays off paths while its column
     /// has anything else. When the column runs out of variants it becomes
@@ -198,7 +198,7 @@ impl State<'_> {
         let entered: Vec<Option<Status>> = if likely_free {
             let needs = self.end_needs(prover, items, &cand, &queries, &owner);
             prover
-                .poses_clear(&queries, &needs)?
+                .poses_short_of_need(&queries, &needs)?
                 .into_iter()
                 .map(|short| Some(if short { Status::Tight } else { Status::Free }))
                 .collect()

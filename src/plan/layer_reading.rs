@@ -17,8 +17,8 @@
 //! the one they read as.
 //!
 
-use super::motion::{tip_subdivision_where, MoveSpec};
 use crate::kinematics::{Axes, Machine};
+use crate::prove::{tip_subdivision_where, MoveSpec};
 use crate::toolpath::Toolpath;
 use rstar::primitives::GeomWithData;
 use rstar::RTree;

@@ -11,7 +11,7 @@
 //!    with none is skipped and reported;
 //! 4. **graph** (`search`): per section, the cheapest path through the
 //!    layered graph ([`graph`], priced by [`cost`]), every node on it
-//!    asked and every printing move proven free ([`motion`]); what fails
+//!    asked and every printing move proven free ([`crate::prove`]); what fails
 //!    dies or is blocked and the path is solved again around it, until the
 //!    whole path is proven;
 //! 5. **extrusion**: layer heights from the surfaces below ([`extrusion`]),
@@ -28,7 +28,6 @@ pub mod extrusion;
 pub mod graph;
 pub mod layer_reading;
 pub mod metrics;
-pub mod motion;
 pub mod program;
 mod search;
 pub mod singular;
@@ -37,6 +36,7 @@ pub mod spread;
 
 use crate::collide::{Backend, CollideError};
 use crate::kinematics::{ik_angles, orientation, round_written, wrap, Axes, Machine};
+use crate::prove::{MoveSpec, Prover};
 use crate::scene::Scene;
 use crate::toolpath::Toolpath;
 use candidates::Sampling;
@@ -45,7 +45,6 @@ use extrusion::Height;
 use graph::{Blocked, Columns, Path};
 use layer_reading::NearestLayer;
 use metrics::{Metrics, SegmentStats};
-use motion::{MoveSpec, Prover};
 use program::{Assembly, Program, SectionPlan, Stop};
 use rayon::prelude::*;
 use smooth::Smoothing;
@@ -1069,7 +1068,7 @@ impl<'a> InputJob<'a> {
 /// The largest tip deviation of the extruding moves (sampled as a
 /// controller interpolates, [`metrics::tip_deviation`]: 63 poses a move).
 /// No move deviates more than its analytic bound
-/// ([`motion::tip_deviation_bound`]), so moves are sampled in order of
+/// ([`crate::prove::tip_deviation_bound`]), so moves are sampled in order of
 /// their bounds, largest first, in parallel blocks, until no bound left
 /// can beat the largest found: the same maximum as sampling every move.
 fn largest_tip_deviation(m: &Machine, moves: &[(Axes, program::Move)]) -> f64 {
@@ -1082,7 +1081,7 @@ fn largest_tip_deviation_in(m: &Machine, moves: &[(Axes, program::Move)], block:
         .par_iter()
         .enumerate()
         .filter(|(_, (_, mv))| mv.kind.extrudes())
-        .map(|(i, (from, mv))| (motion::tip_deviation_bound(m, from, &mv.to), i))
+        .map(|(i, (from, mv))| (crate::prove::tip_deviation_bound(m, from, &mv.to), i))
         .collect();
     bounded.par_sort_unstable_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
     let mut best: f64 = 0.0;

@@ -14,9 +14,9 @@
 //! move, before it is given up (and counted).
 
 use super::layer_reading::NearestLayer;
-use super::motion::{MoveSpec, Prover};
 use crate::collide::CollideError;
 use crate::kinematics::{round_angle, round_written, Axes, Machine, ToolSettings};
+use crate::prove::{MoveSpec, Prover};
 use rayon::prelude::*;
 
 /// What a move is for (the G-code writer and the reports use it).

@@ -114,7 +114,7 @@ pub struct Query {
     /// ≥ 0): a triangle must keep `margin + slope · ρ` from the head, `ρ`
     /// its farthest corner's distance from the tip. Motion proofs use it:
     /// a head point `r` from the tip moves about `δ + ω r` in a move, so
-    /// the clearance a pose needs grows with `r` (`plan::motion`). 0 for
+    /// the clearance a pose needs grows with `r` (`prove`). 0 for
     /// a plain safety margin.
     pub slope: f32,
 }

@@ -9,7 +9,7 @@
 //!    [`crate::scene::Scene::restamp`] turns that into a scene.
 //! 2. [`check_moves`]: every line that moves is proven free or colliding
 //!    with the evaluator, completely (the planner's
-//!    [`crate::plan::motion::Prover`]: samples close enough for the head's
+//!    [`crate::prove::Prover`]: samples close enough for the head's
 //!    size, at the machine's safety margin), interpolated as the
 //!    controller does — joint-linear, or the tip straight under
 //!    tool-centre-point control.
@@ -23,7 +23,7 @@ use crate::collide::{Backend, CollideError};
 use crate::io::gcode_read::{axes_of, GcodeMove};
 use crate::kinematics::{Dialect, Machine};
 use crate::plan::layer_reading::NearestLayer;
-use crate::plan::motion::{MoveSpec, Prover, Ticker};
+use crate::prove::{MoveSpec, Prover, Ticker};
 use crate::toolpath::Toolpath;
 pub use measure::{MoveReport, Problem, ProblemKind};
 use serde::Serialize;

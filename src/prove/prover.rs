@@ -1,0 +1,887 @@
+//! The [`Prover`]: boolean queries turned into proofs about whole moves.
+//!
+//! An interval `[a, b]` of a move is proven when `λ_a + λ_b ≥ b − a`, or
+//! one end alone reaches `b − a` (levels: [`super::levels`]): every pose in
+//! between is within reach of one end's clearance; the same holds for
+//! material points seen from the head, so containment cannot appear in
+//! between either. Samples start `step` mm of tip travel apart and are
+//! asked half their intervals each; where one fails, its intervals are
+//! halved, down to `min_step`. A move is declared colliding only when it
+//! cannot be proven at that resolution.
+//!
+//! Work is shared where moves meet. A waypoint's own pose is asked once,
+//! in the columns, for what the beads to its neighbours will ask of their
+//! ends ([`Prover::end_need`]), and the answer is kept as a sloped
+//! clearance, so those beads start proven at that end. Ends that several
+//! moves ask in the same round (the bead into a pose and the bead out of
+//! it, the pieces of a split bead) are one query asking the most any of
+//! them needs ([`share_ends`]).
+
+use super::bounds::{displacement_bound, sweep, Sweep};
+use super::levels::{level_query, Clearance};
+use crate::collide::moves::SampledMove;
+use crate::collide::{Backend, CollideError};
+use crate::geometry::Pose;
+use crate::kinematics::{Axes, Machine};
+use crate::scene::Query;
+use rayon::prelude::*;
+use rustc_hash::FxHashMap as HashMap;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+
+/// One joint-linear move to prove: from `from` to `to` with the material
+/// of stamps below `cutoff` present.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MoveSpec {
+    /// Start axes.
+    pub from: Axes,
+    /// End axes.
+    pub to: Axes,
+    /// Material with `stamp < cutoff` exists during the move.
+    pub cutoff: u32,
+}
+
+type Key = [i32; 11];
+
+/// A move's identity on the program's grid (micrometres, millidegrees, in
+/// 32 bits: ±2 km, ±5,965 turns), with C taken modulo a turn at the start:
+/// moves that differ only by whole turns of C are the same motion.
+fn key(mv: &MoveSpec) -> Key {
+    let um = |x: f64| (x * 1000.0).round() as i32;
+    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i32;
+    let (a, b) = (&mv.from, &mv.to);
+    let (ca, cb) = (md(a.c), md(b.c));
+    [
+        um(a.xyz[0]),
+        um(a.xyz[1]),
+        um(a.xyz[2]),
+        md(a.tilt),
+        ca.rem_euclid(360_000),
+        um(b.xyz[0]),
+        um(b.xyz[1]),
+        um(b.xyz[2]),
+        md(b.tilt),
+        cb.wrapping_sub(ca),
+        mv.cutoff as i32,
+    ]
+}
+
+/// A pose's identity on the program's grid, with its cutoff.
+fn pose_key(a: &Axes, cutoff: u32) -> PoseKey {
+    let um = |x: f64| (x * 1000.0).round() as i32;
+    let md = |a: f64| (a.to_degrees() * 1000.0).round() as i32;
+    [
+        um(a.xyz[0]),
+        um(a.xyz[1]),
+        um(a.xyz[2]),
+        md(a.tilt),
+        md(a.c).rem_euclid(360_000),
+        cutoff as i32,
+    ]
+}
+
+/// [`pose_key`]'s value.
+type PoseKey = [i32; 6];
+
+/// Proves poses and joint-linear moves free at the safety margin, with
+/// one backend, in batches. What it has proven is kept (moves keyed by
+/// their exact values, poses by theirs and the margins known free or
+/// colliding), so re-checking a written program costs only its new poses
+/// and moves.
+pub struct Prover<'a> {
+    machine: &'a Machine,
+    backend: &'a dyn Backend,
+    reach: f64,
+    /// The safety margin every pose and move must keep (mm).
+    pub margin: f64,
+    /// Initial spacing of the samples of a move: the largest distance the
+    /// tip moves between two of them (mm); long moves start with at most
+    /// 64 samples.
+    pub step: f64,
+    /// Finest spacing before a move is declared colliding (mm). Poses are
+    /// checked with `margin + min_step` so that the moves out of them can
+    /// always be proven.
+    pub min_step: f64,
+    cache: Mutex<HashMap<Key, bool>>,
+    /// Poses known free, and what they are known free at (colliding
+    /// poses are not kept: they are rarely asked again).
+    known: Mutex<HashMap<PoseKey, Clearance>>,
+    queries: AtomicU64,
+    /// Hears `(done, total)` queries of each batch as it is answered.
+    ticker: Option<Ticker<'a>>,
+}
+
+/// Where a [`Prover`] reports the progress of its batches.
+pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
+
+/// Queries per backend call when a [`Ticker`] listens: large enough to
+/// keep a batch backend busy (or the backend's own
+/// [`Backend::batch_hint`], when larger), small enough for a progress bar
+/// to move.
+const TICK_BATCH: usize = 1 << 16;
+
+/// Per-sample state of a move being proven: parameter, largest level it
+/// is known free at, smallest level it is known to fail at (levels:
+/// [`level_query`]).
+#[derive(Clone, Copy)]
+struct Sample {
+    t: f64,
+    free: f64,
+    hit: f64,
+    /// An end whose shared query failed: asked on its own from now on.
+    solo: bool,
+}
+
+impl<'a> Prover<'a> {
+    /// A prover for `machine` over `backend`; `reach` is the head's largest
+    /// distance from its tip (mm).
+    pub fn new(
+        machine: &'a Machine,
+        backend: &'a dyn Backend,
+        reach: f64,
+        margin: f64,
+        step: f64,
+    ) -> Self {
+        Prover {
+            machine,
+            backend,
+            reach,
+            margin,
+            step: step.max(1e-3),
+            min_step: 0.005,
+            cache: Mutex::new(HashMap::default()),
+            known: Mutex::new(HashMap::default()),
+            queries: AtomicU64::new(0),
+            ticker: None,
+        }
+    }
+
+    /// Report every batch's progress to `ticker` (queries done, total).
+    pub fn with_ticker(mut self, ticker: Ticker<'a>) -> Self {
+        self.ticker = Some(ticker);
+        self
+    }
+
+    /// Collision queries answered so far.
+    pub fn queries(&self) -> u64 {
+        self.queries.load(Ordering::Relaxed)
+    }
+
+    /// The margin poses are checked with: the safety margin plus the
+    /// finest step, so every accepted pose can start a provable move.
+    pub fn pose_margin(&self) -> f64 {
+        self.margin + self.min_step
+    }
+
+    fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
+        self.queries.fetch_add(q.len() as u64, Ordering::Relaxed);
+        let Some(tick) = self.ticker else {
+            return self.backend.evaluate(q);
+        };
+        let mut out = Vec::with_capacity(q.len());
+        for chunk in q.chunks(TICK_BATCH.max(self.backend.batch_hint())) {
+            out.extend(self.backend.evaluate(chunk)?);
+            tick(out.len() as u64, q.len() as u64);
+        }
+        Ok(out)
+    }
+
+    fn query(&self, a: &Axes, cutoff: u32, margin: f64) -> Query {
+        self.query_pose(self.machine.pose(a), cutoff, margin)
+    }
+
+    fn query_pose(&self, pose: Pose, cutoff: u32, margin: f64) -> Query {
+        Query {
+            pose,
+            cutoff,
+            margin: margin as f32,
+            slope: 0.0,
+        }
+    }
+
+    /// Do the poses `(axes, cutoff)` come within the pose margin of
+    /// existing material? One verdict each.
+    pub fn poses(&self, items: &[(Axes, u32)]) -> Result<Vec<bool>, CollideError> {
+        self.poses_at(items, self.pose_margin())
+    }
+
+    /// [`Prover::poses`] for poses that are usually free (a waypoint's own
+    /// orientation), each first asked once for what the moves into and
+    /// out of it will ask of their ends ([`Prover::poses_short_of_need`]), so
+    /// those moves start proven at their ends; only those that fail are
+    /// asked again at the pose margin (a pose that merely grazes is free).
+    /// `needs[i]` is item `i`'s `(margin, slope)`.
+    pub fn poses_wide(
+        &self,
+        items: &[(Axes, u32)],
+        needs: &[(f64, f64)],
+    ) -> Result<Vec<bool>, CollideError> {
+        let wide = self.poses_short_of_need(items, needs)?;
+        let near: Vec<usize> = (0..items.len()).filter(|&i| wide[i]).collect();
+        let again: Vec<(Axes, u32)> = near.iter().map(|&i| items[i]).collect();
+        let hits = self.poses(&again)?;
+        let mut out = vec![false; items.len()];
+        for (&i, h) in near.iter().zip(hits) {
+            out[i] = h;
+        }
+        Ok(out)
+    }
+
+    /// Do the poses `(axes, cutoff)` fall short of what the moves into
+    /// and out of them will ask of their ends ([`Prover::end_need`]: a
+    /// margin of at least `margin + step / 2`, growing with distance from
+    /// the tip where the moves turn)? `true` where a pose grazes or
+    /// collides; what the others keep is remembered as a sloped
+    /// clearance. `needs[i]` is item `i`'s `(margin, slope)`.
+    pub fn poses_short_of_need(
+        &self,
+        items: &[(Axes, u32)],
+        needs: &[(f64, f64)],
+    ) -> Result<Vec<bool>, CollideError> {
+        let q: Vec<Query> = items
+            .par_iter()
+            .zip(needs)
+            .map(|(&(a, cutoff), &(margin, slope))| Query {
+                slope: slope as f32,
+                ..self.query(&a, cutoff, margin)
+            })
+            .collect();
+        let wide = self.evaluate(&q)?;
+        let mut known = self.known.lock().expect("prover cache");
+        for ((&(a, cutoff), &(margin, slope)), &h) in items.iter().zip(needs).zip(&wide) {
+            if !h {
+                let e = known
+                    .entry(pose_key(&a, cutoff))
+                    .or_insert(Clearance::new(margin, slope));
+                *e = e.merged(Clearance::new(margin, slope));
+            }
+        }
+        Ok(wide)
+    }
+
+    /// The `(margin, slope)` a pose `a` must keep so that the moves
+    /// between it and each of `neighbours` need no query at this end:
+    /// the level their first samples ask of an end (half the first
+    /// interval), as one query ([`level_query`]); never less than
+    /// `margin + step / 2`. Moves that turn too far for a sloped query
+    /// (the uniform form) add nothing: their ends are asked as they come.
+    pub fn end_need(&self, a: &Axes, neighbours: &[Axes]) -> (f64, f64) {
+        let mut need = (self.margin + 0.5 * self.step, 0.0f64);
+        for b in neighbours {
+            let sw = sweep(self.machine, a, b);
+            let level = 0.5 / self.first_samples(&sw) as f64;
+            if level * sw.turn < 0.5 {
+                let (margin, slope) = level_query(self.margin, &sw, self.reach, level);
+                need = (need.0.max(margin), need.1.max(slope));
+            }
+        }
+        need
+    }
+
+    /// Intervals a move with sweep `sw` starts with: the tip moves no
+    /// farther than `step` over one; long moves (travels) start coarser,
+    /// with at most 64, refined only where material is near.
+    fn first_samples(&self, sw: &Sweep) -> usize {
+        ((sw.tip / self.step).ceil() as usize).clamp(1, 64)
+    }
+
+    /// Record that the pose `(a, cutoff)` has the verdict of a pose it is
+    /// congruent to (the same head geometry turned by a symmetry) at the
+    /// pose margin.
+    pub fn same_as(&self, a: &Axes, cutoff: u32, like: &Axes) {
+        let mut known = self.known.lock().expect("prover cache");
+        if let Some(k) = known.get(&pose_key(like, cutoff)).copied() {
+            known.insert(pose_key(a, cutoff), k);
+        }
+    }
+
+    /// Do the poses `(axes, cutoff)` come within `margin` of existing
+    /// material? Poses already known free at a larger margin are answered
+    /// without a query.
+    pub fn poses_at(&self, items: &[(Axes, u32)], margin: f64) -> Result<Vec<bool>, CollideError> {
+        let keys: Vec<PoseKey> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
+        let mut out: Vec<Option<bool>> = {
+            let known = self.known.lock().expect("prover cache");
+            let known: &HashMap<PoseKey, Clearance> = &known;
+            keys.par_iter()
+                .map(|k| {
+                    known
+                        .get(k)
+                        .and_then(|free| (free.plain >= margin as f32).then_some(false))
+                })
+                .collect()
+        };
+        let todo: Vec<usize> = (0..items.len()).filter(|&i| out[i].is_none()).collect();
+        let q: Vec<Query> = todo
+            .par_iter()
+            .map(|&i| self.query(&items[i].0, items[i].1, margin))
+            .collect();
+        let hits = self.evaluate(&q)?;
+        let mut known = self.known.lock().expect("prover cache");
+        for (&i, h) in todo.iter().zip(hits) {
+            if !h {
+                let e = known.entry(keys[i]).or_insert(Clearance::new(margin, 0.0));
+                *e = e.merged(Clearance::new(margin, 0.0));
+            }
+            out[i] = Some(h);
+        }
+        Ok(out.into_iter().map(|v| v.unwrap_or(true)).collect())
+    }
+
+    /// A lower bound for moves too wild to prove (the input's own): does
+    /// any of at most `max_samples` poses along each move, about `step` mm
+    /// of head motion apart, come within the margin?
+    pub fn sampled_moves(
+        &self,
+        moves: &[MoveSpec],
+        step: f64,
+        max_samples: usize,
+    ) -> Result<Vec<bool>, CollideError> {
+        let asked: Vec<SampledMove> = moves
+            .par_iter()
+            .map(|mv| {
+                let d = displacement_bound(self.machine, &mv.from, &mv.to, self.reach);
+                let n = ((d / step).ceil() as usize).clamp(1, max_samples + 1);
+                SampledMove {
+                    from: mv.from,
+                    to: mv.to,
+                    cutoff: mv.cutoff,
+                    margin: self.margin as f32,
+                    intervals: n as u32,
+                }
+            })
+            .collect();
+        let samples: u64 = asked.iter().map(|m| m.intervals as u64 - 1).sum();
+        self.queries.fetch_add(samples, Ordering::Relaxed);
+        self.backend.sampled_moves(self.machine, &asked)
+    }
+
+    /// Does each move come within the margin of existing material at any
+    /// point (or can it not be proven free)? One verdict each.
+    pub fn moves(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
+        let keys: Vec<Key> = moves.par_iter().map(key).collect();
+        let mut out: Vec<Option<bool>> = {
+            let cache = self.cache.lock().expect("prover cache");
+            let cache: &HashMap<Key, bool> = &cache;
+            keys.par_iter().map(|k| cache.get(k).copied()).collect()
+        };
+        let todo: Vec<usize> = (0..moves.len()).filter(|&i| out[i].is_none()).collect();
+        let found = self.prove(&todo.iter().map(|&i| moves[i]).collect::<Vec<_>>())?;
+        let mut cache = self.cache.lock().expect("prover cache");
+        for (&i, v) in todo.iter().zip(found) {
+            cache.insert(keys[i], v);
+            out[i] = Some(v);
+        }
+        Ok(out.into_iter().map(|v| v.unwrap_or(true)).collect())
+    }
+
+    /// The adaptive proof (module comment) for moves not in the cache:
+    /// rounds of queries, each asking what the undecided moves' unproven
+    /// intervals need, until every move is proven or cannot be.
+    fn prove(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
+        let sweeps: Vec<Sweep> = moves
+            .par_iter()
+            .map(|mv| sweep(self.machine, &mv.from, &mv.to))
+            .collect();
+        let bounds: Vec<f64> = sweeps.iter().map(|s| s.within(self.reach)).collect();
+        let mut samples = self.initial_samples(moves, &sweeps, &bounds);
+        let mut verdict: Vec<Option<bool>> = vec![None; moves.len()];
+        loop {
+            let round = Self::next_round(&mut samples, &mut verdict, &bounds, self.min_step);
+            if round.is_empty() {
+                break;
+            }
+            let asks = self.asks(moves, &sweeps, &samples, &round);
+            let (slot, shared, grown) = share_ends(&asks);
+            let hits = self.ask_shared(moves, &samples, &round, &shared, &grown)?;
+            self.record(&mut samples, &round, &asks, (&slot, &grown), &hits);
+        }
+        Ok(verdict.into_iter().map(|v| v.unwrap_or(true)).collect())
+    }
+
+    /// Each move's first samples: intervals over which the tip moves no
+    /// farther than `step` (material near the tip is proven at that first
+    /// resolution; material farther out, which a turn sweeps faster,
+    /// splits the intervals it comes near). The ends start with what is
+    /// known of them as poses (a pose free with more material present is
+    /// free with less): a plain margin `M` certifies level
+    /// `(M − m) / bound`.
+    fn initial_samples(
+        &self,
+        moves: &[MoveSpec],
+        sweeps: &[Sweep],
+        bounds: &[f64],
+    ) -> Vec<Vec<Sample>> {
+        let m = self.margin;
+        let known = self.known.lock().expect("prover cache");
+        let known: &HashMap<PoseKey, Clearance> = &known;
+        let at = |a: &Axes, cutoff: u32, sw: &Sweep, d: f64| {
+            [cutoff, cutoff + 1]
+                .iter()
+                .filter_map(|&c| known.get(&pose_key(a, c)))
+                .map(|k| k.level(m, sw, d))
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        sweeps
+            .par_iter()
+            .zip(bounds)
+            .zip(moves)
+            .map(|((sw, &d), mv)| {
+                let n = self.first_samples(sw);
+                (0..=n)
+                    .map(|k| Sample {
+                        t: k as f64 / n as f64,
+                        free: match k {
+                            0 => at(&mv.from, mv.cutoff, sw, d),
+                            _ if k == n => at(&mv.to, mv.cutoff, sw, d),
+                            _ => f64::NEG_INFINITY,
+                        },
+                        hit: f64::INFINITY,
+                        solo: false,
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// One round's requests, `(move, sample, level)`: per undecided move,
+    /// the samples to query and at what level, splitting intervals that
+    /// cannot be proven as they stand ([`plan_requests`]); moves that are
+    /// decided now get their verdict.
+    fn next_round(
+        samples: &mut [Vec<Sample>],
+        verdict: &mut [Option<bool>],
+        bounds: &[f64],
+        min_step: f64,
+    ) -> Vec<(usize, usize, f64)> {
+        let requests: Vec<Vec<(usize, f64)>> = samples
+            .par_iter_mut()
+            .zip(verdict.par_iter_mut())
+            .zip(bounds.par_iter())
+            .map(|((s, v), &d)| {
+                if v.is_some() {
+                    return Vec::new();
+                }
+                let (req, decided) = plan_requests(s, d, min_step);
+                *v = decided;
+                req
+            })
+            .collect();
+        requests
+            .iter()
+            .enumerate()
+            .flat_map(|(i, r)| r.iter().map(move |&(k, level)| (i, k, level)))
+            .collect()
+    }
+
+    /// What each request of a round asks: the `(margin, slope)` of its
+    /// level, and the end it stands at (which neighbouring moves may
+    /// share), unless that end is asked on its own.
+    fn asks(
+        &self,
+        moves: &[MoveSpec],
+        sweeps: &[Sweep],
+        samples: &[Vec<Sample>],
+        round: &[(usize, usize, f64)],
+    ) -> Vec<Ask> {
+        round
+            .par_iter()
+            .map(|&(i, k, level)| {
+                let mv = &moves[i];
+                let (margin, slope) = level_query(self.margin, &sweeps[i], self.reach, level);
+                let last = samples[i].len() - 1;
+                let end = match k {
+                    _ if samples[i][k].solo => None,
+                    0 => Some(mv.from),
+                    _ if k == last => Some(mv.to),
+                    _ => None,
+                };
+                Ask {
+                    end,
+                    cutoff: mv.cutoff,
+                    margin,
+                    slope,
+                }
+            })
+            .collect()
+    }
+
+    /// The round's shared queries (`shared[q]`: the request whose pose
+    /// query `q` takes; `grown[q]`: what it asks), one verdict each.
+    fn ask_shared(
+        &self,
+        moves: &[MoveSpec],
+        samples: &[Vec<Sample>],
+        round: &[(usize, usize, f64)],
+        shared: &[usize],
+        grown: &[Ask],
+    ) -> Result<Vec<bool>, CollideError> {
+        let queries: Vec<Query> = shared
+            .par_iter()
+            .zip(grown)
+            .map(|(&j, a)| {
+                let (i, k, _) = round[j];
+                let mv = &moves[i];
+                let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
+                Query {
+                    slope: a.slope as f32,
+                    ..self.query_pose(pose, a.cutoff, a.margin)
+                }
+            })
+            .collect();
+        self.evaluate(&queries)
+    }
+
+    /// What a round's answers teach: a free sample's level, a shared end's
+    /// clearance (kept as the pose's), a failed sample's level; a shared
+    /// query that asked more than this end needs and failed makes the end
+    /// ask on its own from now on.
+    fn record(
+        &self,
+        samples: &mut [Vec<Sample>],
+        round: &[(usize, usize, f64)],
+        asks: &[Ask],
+        (slot, grown): (&[usize], &[Ask]),
+        hits: &[bool],
+    ) {
+        let mut known = self.known.lock().expect("prover cache");
+        for (j, &(i, k, level)) in round.iter().enumerate() {
+            let q = &grown[slot[j]];
+            let s = &mut samples[i][k];
+            if !hits[slot[j]] {
+                s.free = s.free.max(level);
+                if let Some(a) = q.end {
+                    let e = known
+                        .entry(pose_key(&a, q.cutoff))
+                        .or_insert(Clearance::new(q.margin, q.slope));
+                    *e = e.merged(Clearance::new(q.margin, q.slope));
+                }
+            } else if asks[j].same_need(q) {
+                s.hit = s.hit.min(level);
+            } else {
+                // The shared query asked more than this end needs.
+                s.solo = true;
+            }
+        }
+    }
+}
+
+/// One query a round of [`Prover::prove`] needs: a sample of a move at
+/// the `(margin, slope)` of its level; `end` is the sample's axes when it
+/// is a move's end (which neighbouring moves may share).
+#[derive(Clone, Copy)]
+struct Ask {
+    end: Option<Axes>,
+    cutoff: u32,
+    margin: f64,
+    slope: f64,
+}
+
+impl Ask {
+    /// Does `self` ask as much as `other` on every count?
+    fn same_need(&self, other: &Ask) -> bool {
+        self.cutoff >= other.cutoff && self.margin >= other.margin && self.slope >= other.slope
+    }
+}
+
+/// Ends of moves asked in the same round at the same pose (the bead into
+/// a waypoint and the bead out of it; the pieces of a split bead) become
+/// one query asking the most any of them asks — the largest margin, slope
+/// and cutoff — which certifies each. Returns, per ask, the index of its
+/// query; per query, the ask whose pose it takes (the first of its group)
+/// and what it asks (the group's need).
+fn share_ends(asks: &[Ask]) -> (Vec<usize>, Vec<usize>, Vec<Ask>) {
+    let mut first: HashMap<PoseKey, usize> = HashMap::default();
+    let mut slot = Vec::with_capacity(asks.len());
+    let mut shared: Vec<usize> = Vec::new();
+    let mut grown: Vec<Ask> = Vec::new();
+    for (j, a) in asks.iter().enumerate() {
+        let group = a.end.map(|e| pose_key(&e, 0));
+        match group.and_then(|key| first.get(&key).copied()) {
+            Some(q) => {
+                let g = &mut grown[q];
+                g.cutoff = g.cutoff.max(a.cutoff);
+                g.margin = g.margin.max(a.margin);
+                g.slope = g.slope.max(a.slope);
+                slot.push(q);
+            }
+            None => {
+                if let Some(key) = group {
+                    first.insert(key, shared.len());
+                }
+                slot.push(shared.len());
+                shared.push(j);
+                grown.push(*a);
+            }
+        }
+    }
+    (slot, shared, grown)
+}
+
+/// One round of the proof of one move (its farthest moving head point
+/// travels `d`): the `(sample, level)` queries its unproven intervals need,
+/// splitting each interval that no query can settle any more (an end
+/// already failed at the level asked of it). An interval `[a, b]` is
+/// proven when `level(a) + level(b) ≥ b − a` (or one end's level alone
+/// reaches `b − a`); its ends are asked half
+/// each, or, when one end is already known free at a quarter of the span
+/// or more, the other asked the rest. Returns the decision instead once
+/// the move is proven free (`Some(false)`) or cannot be (`Some(true)`: a
+/// blocked interval whose half moves the head less than `min_step`).
+fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64)>, Option<bool>) {
+    // (The tolerance absorbs rounding.) One end known at the whole span
+    // covers the interval alone, whatever is known of the other.
+    let proven = |a: &Sample, b: &Sample| {
+        let span = (b.t - a.t) * (1.0 - 1e-9);
+        a.free >= span || b.free >= span || a.free + b.free >= span
+    };
+    // The levels wanted of the ends of an unproven interval.
+    let want = |a: &Sample, b: &Sample| {
+        let span = b.t - a.t;
+        if a.free >= 0.25 * span && a.free >= b.free {
+            (a.free, span - a.free)
+        } else if b.free >= 0.25 * span {
+            (span - b.free, b.free)
+        } else {
+            (0.5 * span, 0.5 * span)
+        }
+    };
+    let blocked = |a: &Sample, b: &Sample| {
+        let (wa, wb) = want(a, b);
+        (a.free < wa && a.hit <= wa) || (b.free < wb && b.hit <= wb)
+    };
+    // Splits.
+    let mut k = 0;
+    while k + 1 < s.len() {
+        let (a, b) = (s[k], s[k + 1]);
+        if !proven(&a, &b) && blocked(&a, &b) {
+            if 0.5 * d * (b.t - a.t) < min_step {
+                return (Vec::new(), Some(true));
+            }
+            s.insert(
+                k + 1,
+                Sample {
+                    t: 0.5 * (a.t + b.t),
+                    free: f64::NEG_INFINITY,
+                    hit: f64::INFINITY,
+                    solo: false,
+                },
+            );
+            k += 2;
+        } else {
+            k += 1;
+        }
+    }
+    // Queries for the ends of every interval not yet proven.
+    let mut need: Vec<(usize, f64)> = Vec::new();
+    for k in 0..s.len() - 1 {
+        let (a, b) = (s[k], s[k + 1]);
+        if proven(&a, &b) {
+            continue;
+        }
+        let (wa, wb) = want(&a, &b);
+        for (idx, w) in [(k, wa), (k + 1, wb)] {
+            if s[idx].free < w && s[idx].hit > w {
+                match need.last_mut() {
+                    Some(last) if last.0 == idx => last.1 = last.1.max(w),
+                    _ => need.push((idx, w)),
+                }
+            }
+        }
+    }
+    if need.is_empty() {
+        // Nothing left to ask: either all proven, or only splits remain.
+        let all = (0..s.len() - 1).all(|k| proven(&s[k], &s[k + 1]));
+        return (need, all.then_some(false));
+    }
+    (need, None)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::Machine;
+
+    fn axes(m: &Machine, p: [f64; 3], tilt_deg: f64, c_deg: f64) -> Axes {
+        m.axes_at(p, (tilt_deg.to_radians(), c_deg.to_radians()))
+    }
+
+    /// A backend that answers by the query alone: a hit when it asks for
+    /// more than `margin` and more than `slope` at once (monotone, as
+    /// every real backend is: asking more never turns a hit free).
+    struct Profile {
+        margin: f32,
+        slope: f32,
+        asked: Mutex<Vec<Query>>,
+    }
+
+    impl Backend for Profile {
+        fn name(&self) -> &'static str {
+            "profile"
+        }
+        fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
+            self.asked.lock().unwrap().extend_from_slice(q);
+            Ok(q.iter()
+                .map(|q| q.margin > self.margin && q.slope > self.slope)
+                .collect())
+        }
+    }
+
+    fn profile(margin: f32, slope: f32) -> Profile {
+        Profile {
+            margin,
+            slope,
+            asked: Mutex::new(Vec::new()),
+        }
+    }
+
+    /// A chain of beads through free poses: each waypoint between two beads
+    /// is asked once for both (shared ends), not once per bead.
+    #[test]
+    fn beads_of_a_chain_share_their_ends() {
+        let m = Machine::default();
+        let fake = profile(f32::INFINITY, f32::INFINITY);
+        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let way: Vec<Axes> = (0..7)
+            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
+            .collect();
+        let beads: Vec<MoveSpec> = way
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| MoveSpec {
+                from: w[0],
+                to: w[1],
+                cutoff: k as u32 + 1,
+            })
+            .collect();
+        let intervals: usize = beads
+            .iter()
+            .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)))
+            .sum();
+        assert!(prover.moves(&beads).unwrap().iter().all(|&h| !h));
+        // Every sample once: the 7 waypoints and the interior samples.
+        let interior = intervals - beads.len();
+        assert_eq!(prover.queries() as usize, way.len() + interior);
+        // A shared end asks what its neighbour's bead needs, with the later
+        // bead's material.
+        let asked = fake.asked.lock().unwrap();
+        let mid = m.pose(&way[3]);
+        let q = asked
+            .iter()
+            .find(|q| q.pose.tip == mid.tip && q.pose.cols == mid.cols)
+            .expect("waypoint 3 asked");
+        assert_eq!(q.cutoff, 4);
+    }
+
+    /// Waypoints asked for what their beads need of them
+    /// ([`Prover::end_need`]) start those beads proven at both ends: the
+    /// beads ask only their interior samples.
+    #[test]
+    fn waypoints_asked_for_their_beads_need_no_end_samples() {
+        let m = Machine::default();
+        let fake = profile(f32::INFINITY, f32::INFINITY);
+        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let way: Vec<Axes> = (0..7)
+            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
+            .collect();
+        let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], k as u32 + 1)).collect();
+        let needs: Vec<(f64, f64)> = (0..way.len())
+            .map(|k| {
+                let near: Vec<Axes> = [k.wrapping_sub(1), k + 1]
+                    .iter()
+                    .filter_map(|&j| way.get(j).copied())
+                    .collect();
+                prover.end_need(&way[k], &near)
+            })
+            .collect();
+        // Turning beads need a slope.
+        assert!(needs.iter().all(|n| n.1 > 0.0 && n.0 > 0.05));
+        assert!(prover
+            .poses_wide(&items, &needs)
+            .unwrap()
+            .iter()
+            .all(|&h| !h));
+        let before = prover.queries() as usize;
+        assert_eq!(before, way.len());
+        let beads: Vec<MoveSpec> = way
+            .windows(2)
+            .enumerate()
+            .map(|(k, w)| MoveSpec {
+                from: w[0],
+                to: w[1],
+                cutoff: k as u32 + 1,
+            })
+            .collect();
+        let interior: usize = beads
+            .iter()
+            .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)) - 1)
+            .sum();
+        assert!(interior > 0);
+        assert!(prover.moves(&beads).unwrap().iter().all(|&h| !h));
+        assert_eq!(prover.queries() as usize - before, interior);
+    }
+
+    /// When the shared query of an end asks more than one of its beads
+    /// needs and fails, each bead asks that end again on its own, and
+    /// both are proven; the failure is not held against the weaker ask.
+    #[test]
+    fn a_failed_shared_end_is_asked_again_alone() {
+        let m = Machine::default();
+        let (a, b, c) = (
+            axes(&m, [0.0, 0.0, 40.0], 10.0, 0.0),
+            axes(&m, [0.59, 0.0, 40.0], 10.0, 0.0),
+            axes(&m, [0.79, 0.0, 40.0], 10.0, 4.0),
+        );
+        // What each bead asks of b at its first samples' level.
+        let need = |x: &Axes, y: &Axes| {
+            let sw = sweep(&m, x, y);
+            let n = ((sw.tip / 0.3).ceil() as usize).clamp(1, 64);
+            level_query(0.05, &sw, 36.0, 0.5 / n as f64)
+        };
+        let ((m1, k1), (m2, k2)) = (need(&a, &b), need(&b, &c));
+        assert!(m1 > m2 && k2 > k1, "({m1}, {k1}) ({m2}, {k2})");
+        // Free for each alone, a hit for both at once.
+        let fake = profile(0.5 * (m1 + m2) as f32, 0.5 * (k1 + k2) as f32);
+        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let beads = [
+            MoveSpec {
+                from: a,
+                to: b,
+                cutoff: 1,
+            },
+            MoveSpec {
+                from: b,
+                to: c,
+                cutoff: 2,
+            },
+        ];
+        assert_eq!(prover.moves(&beads).unwrap(), vec![false, false]);
+        let asked = fake.asked.lock().unwrap();
+        let at_b = m.pose(&b);
+        let ends: Vec<&Query> = asked
+            .iter()
+            .filter(|q| q.pose.tip == at_b.tip && q.pose.cols == at_b.cols)
+            .collect();
+        // Shared (failed), then once for each bead.
+        assert_eq!(ends.len(), 3, "{ends:?}");
+    }
+
+    /// One end known free for the whole span proves the interval, however
+    /// little is known of the other end.
+    #[test]
+    fn one_end_can_cover_an_interval_alone() {
+        let sample = |t: f64, free: f64| Sample {
+            t,
+            free,
+            hit: f64::INFINITY,
+            solo: false,
+        };
+        let mut s = vec![sample(0.0, 1.0), sample(1.0, f64::NEG_INFINITY)];
+        assert_eq!(plan_requests(&mut s, 1.0, 0.005), (Vec::new(), Some(false)));
+        let mut s = vec![sample(0.0, 0.6), sample(1.0, f64::NEG_INFINITY)];
+        let (ask, decided) = plan_requests(&mut s, 1.0, 0.005);
+        assert_eq!(decided, None);
+        assert_eq!(ask.len(), 1);
+        assert!((ask[0].1 - 0.4).abs() < 1e-12);
+    }
+}
