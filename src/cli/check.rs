@@ -11,6 +11,7 @@ use maamplan::kinematics::{Axes, Machine};
 use maamplan::plan::layer_reading::NearestLayer;
 use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
 use maamplan::prove::Prover;
+use maamplan::scene::cutoff;
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -95,7 +96,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
             let items: Vec<(Axes, u32)> = axes
                 .iter()
                 .enumerate()
-                .map(|(g, a)| (*a, g as u32 + 1))
+                .map(|(g, a)| (*a, cutoff(g)))
                 .collect();
             let hits = prover.poses_at(&items, margin)?;
             Verdicts {
@@ -233,7 +234,7 @@ fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) ->
     let pose_hits = prover.poses_at(
         &items
             .iter()
-            .map(|(g, a)| (*a, *g as u32 + 1))
+            .map(|(g, a)| (*a, cutoff(*g)))
             .collect::<Vec<_>>(),
         prover.margin,
     )?;

@@ -15,7 +15,7 @@
 
 use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::scene::slab::{oct_decode, unpack_snorm2x16};
-use crate::scene::{bvh, GpuPartNode, Scene};
+use crate::scene::{bvh, cutoff, GpuPartNode, Scene};
 use rayon::prelude::*;
 
 /// Layers looked back for the surface a waypoint rests on.
@@ -149,7 +149,7 @@ impl Below<'_> {
     fn nearest_carried(&self, p: [f64; 3], layer: usize, limit: f64, carry: &mut Carry) -> f64 {
         let scene = self.scene;
         let first = layer.saturating_sub(self.lookback);
-        let cutoff = self.layer_start[layer] as u32 + 1;
+        let cutoff = cutoff(self.layer_start[layer]);
         let older = self.layer_start[first] as u32;
         let wanted = |l: u32| l == u32::MAX || (l as usize >= first && (l as usize) < layer);
         let v = |a: [f32; 3]| a.map(|x| x as f64);
@@ -366,7 +366,7 @@ mod tests {
             .collect();
         let plain = |k: usize, p: [f64; 3], lookback: usize| {
             let first = k.saturating_sub(lookback);
-            let cutoff = starts[k] as u32 + 1;
+            let cutoff = cutoff(starts[k]);
             scene
                 .part_tris
                 .iter()

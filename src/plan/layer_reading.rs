@@ -101,7 +101,7 @@ impl NearestLayer {
         };
         let layer = self.layer_of[g];
         let first = self.layer_of.partition_point(|&k| k < layer);
-        cutoff.max(first as u32 + 1)
+        cutoff.max(crate::scene::cutoff(first))
     }
 
     /// Does `p` read as `layer`: is a waypoint of `layer` at least as near

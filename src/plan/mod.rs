@@ -37,7 +37,7 @@ pub mod spread;
 use crate::collide::{Backend, CollideError};
 use crate::kinematics::{ik_angles, orientation, round_written, wrap, Axes, Machine};
 use crate::prove::{MoveSpec, Prover};
-use crate::scene::Scene;
+use crate::scene::{cutoff, Scene};
 use crate::toolpath::Toolpath;
 use candidates::Sampling;
 use cost::{CostModel, Winding};
@@ -283,11 +283,6 @@ fn windows(cols: &[usize], n: usize, w: usize) -> Vec<Range<usize>> {
 
 /// Sample spacing of the input's own moves (mm of head motion).
 pub const INPUT_STEP: f64 = 2.0;
-
-/// The cutoff of waypoint `g`'s pose: material of earlier waypoints.
-fn cutoff(g: usize) -> u32 {
-    g as u32 + 1
-}
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2])

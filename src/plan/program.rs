@@ -17,6 +17,7 @@ use super::layer_reading::NearestLayer;
 use crate::collide::CollideError;
 use crate::kinematics::{round_angle, round_written, Axes, Machine, ToolSettings};
 use crate::prove::{MoveSpec, Prover};
+use crate::scene::cutoff;
 use rayon::prelude::*;
 
 /// What a move is for (the G-code writer and the reports use it).
@@ -477,7 +478,7 @@ impl Assembly<'_> {
                 tool_change: None,
                 height: home.xyz[2].max(at.xyz[2]),
                 rotate_first: false,
-                lift_cutoff: g as u32 + 1,
+                lift_cutoff: cutoff(g),
                 cutoff: g as u32 + 2,
                 offsets: [tool.map_or([0.0; 2], |x| x.offset); 2],
             };
@@ -521,7 +522,7 @@ impl Assembly<'_> {
             .flat_map(|(sec, w)| {
                 (1..sec.stops.len())
                     .filter(|&k| !sec.stops[k].brk)
-                    .map(move |k| (&w[k - 1], &w[k], sec.layer, sec.stops[k - 1].g as u32 + 1))
+                    .map(move |k| (&w[k - 1], &w[k], sec.layer, cutoff(sec.stops[k - 1].g)))
             })
             .collect();
         beads
@@ -563,8 +564,8 @@ impl Assembly<'_> {
             tool_change,
             height: round_written(height),
             rotate_first: false,
-            lift_cutoff: last_g.map_or(g as u32 + 1, |l| l as u32 + 1),
-            cutoff: g as u32 + 1,
+            lift_cutoff: cutoff(last_g.unwrap_or(g)),
+            cutoff: cutoff(g),
             offsets,
         }
     }

@@ -17,6 +17,7 @@ pub use gpu_types::{
 };
 pub use head::{Head, HeadConfig};
 pub use head_cache::CacheOutcome;
+pub use stamp::{cutoff, stamp_of};
 
 use crate::geometry::{Aabb, Mesh, Pose};
 use crate::toolpath::Toolpath;
@@ -260,7 +261,7 @@ impl Scene {
         for (g, (k, w)) in toolpath.iter().enumerate() {
             waypoint_queries.push(Query {
                 pose: Pose::from_axis(w.pos, w.dir),
-                cutoff: g as u32 + 1,
+                cutoff: cutoff(g),
                 margin: 0.0,
                 slope: 0.0,
             });

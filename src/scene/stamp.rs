@@ -23,6 +23,18 @@ use std::sync::OnceLock;
 
 type Site = GeomWithData<[f32; 3], u32>;
 
+/// The stamp of what waypoint `g` (global print index) deposits: its
+/// index + 1, the platform being stamp 0.
+pub fn stamp_of(g: usize) -> u32 {
+    g as u32 + 1
+}
+
+/// The cutoff of a pose at waypoint `g`: the material of every earlier
+/// waypoint exists (stamps below `cutoff(g)`), its own bead not yet.
+pub fn cutoff(g: usize) -> u32 {
+    stamp_of(g)
+}
+
 /// Stamp per triangle of `mesh`, for a layer whose first waypoint has global
 /// index `offset`.
 pub fn nearest_waypoint_stamps(mesh: &Mesh, waypoints: &[Waypoint], offset: usize) -> Vec<u32> {
@@ -32,7 +44,7 @@ pub fn nearest_waypoint_stamps(mesh: &Mesh, waypoints: &[Waypoint], offset: usiz
         .into_par_iter()
         .map(|i| {
             let j = grid.nearest(centroid(mesh.corners(i)));
-            (offset + j as usize + 1) as u32
+            stamp_of(offset + j as usize)
         })
         .collect()
 }
