@@ -634,17 +634,19 @@ fn isoplanar_writes_the_folder_and_its_summary() {
     assert!(out.join("waypoint/0.txt").is_file() && out.join("layer/0.obj").is_file());
 }
 
-/// `command` refuses `mesh` in one line naming the file and saying
-/// `needle`, exit 2, and writes nothing.
-fn assert_mesh_refused(command: &str, mesh: &Mesh, needle: &str) {
+/// Each of `commands` refuses `mesh` in one line naming the file and
+/// saying `needle`, exit 2, and writes nothing.
+fn assert_mesh_refused(commands: &[&str], mesh: &Mesh, needle: &str) {
     let dir = tempfile::tempdir().unwrap();
-    let name = "mesh.obj";
-    let (code, err, out) = generate(dir.path(), command, name, mesh, &[]);
-    assert_eq!(code, 2, "{command} {name}: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{err}");
-    assert!(err.contains(name) && err.contains(needle), "{err}");
-    assert!(!out.exists(), "{command} {name} wrote output");
+    for command in commands {
+        let name = format!("{command}.obj");
+        let (code, err, out) = generate(dir.path(), command, &name, mesh, &[]);
+        assert_eq!(code, 2, "{command} {name}: {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{err}");
+        assert!(err.contains(&name) && err.contains(needle), "{err}");
+        assert!(!out.exists(), "{command} {name} wrote output");
+    }
 }
 
 /// A closed box.
@@ -680,27 +682,17 @@ fn degenerate() -> Mesh {
 
 #[test]
 fn slice_refuses_an_open_mesh() {
-    assert_mesh_refused("slice", &open(), "not closed");
+    assert_mesh_refused(&["slice"], &open(), "not closed");
 }
 
 #[test]
-fn slice_refuses_a_non_manifold_mesh() {
-    assert_mesh_refused("slice", &fin(), "non-manifold");
+fn a_non_manifold_mesh_is_refused() {
+    assert_mesh_refused(&["slice", "isoplanar"], &fin(), "non-manifold");
 }
 
 #[test]
-fn isoplanar_refuses_a_non_manifold_mesh() {
-    assert_mesh_refused("isoplanar", &fin(), "non-manifold");
-}
-
-#[test]
-fn slice_refuses_a_degenerate_triangle() {
-    assert_mesh_refused("slice", &degenerate(), "degenerate");
-}
-
-#[test]
-fn isoplanar_refuses_a_degenerate_triangle() {
-    assert_mesh_refused("isoplanar", &degenerate(), "degenerate");
+fn a_degenerate_triangle_is_refused() {
+    assert_mesh_refused(&["slice", "isoplanar"], &degenerate(), "degenerate");
 }
 
 /// An open surface is fine for isoplanar.

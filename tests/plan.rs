@@ -7,7 +7,7 @@
 
 mod common;
 
-use common::{assert_success, cli, data, default_plan, read_json, simple_curve_plan};
+use common::{assert_success, data, default_plan, read_json, simple_curve_plan};
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::Backend;
 use maamplan::io::gcode::{
@@ -264,17 +264,7 @@ fn layer_waypoints_are_what_a_plain_filter_finds() {
 /// default job), run once.
 fn plan_command() -> &'static Path {
     static OUT: OnceLock<PathBuf> = OnceLock::new();
-    OUT.get_or_init(|| {
-        let out = common::scratch().join("plan");
-        assert_success(&cli(&[
-            "plan",
-            "--backend",
-            "cpu",
-            "-o",
-            out.to_str().unwrap(),
-        ]));
-        out
-    })
+    OUT.get_or_init(|| common::plan_default_job("plan", &[]))
 }
 
 #[test]
@@ -341,15 +331,13 @@ fn plan_command_refuses_a_bad_machine_file() {
     let bad = dir.path().join("m.toml");
     std::fs::write(&bad, "configuration = \"IV\"\n").unwrap();
     let out = dir.path().join("out");
-    let o = cli(&[
-        "plan",
-        "--backend",
-        "cpu",
-        "--machine",
-        bad.to_str().unwrap(),
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = common::maamplan()
+        .args(["plan", "--backend", "cpu", "--machine"])
+        .arg(&bad)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
     assert_eq!(o.status.code(), Some(2));
     assert!(common::stderr(&o).contains("m.toml:1:"));
     assert!(!out.exists());

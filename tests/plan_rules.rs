@@ -353,19 +353,7 @@ fn csv_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
 /// embedded default job), run once.
 fn default_plan_folder() -> &'static Path {
     static OUT: OnceLock<PathBuf> = OnceLock::new();
-    OUT.get_or_init(|| {
-        let out = common::scratch().join("plan");
-        assert_success(&cli(&[
-            "plan",
-            "--backend",
-            "cpu",
-            "--no-plots",
-            "-q",
-            "-o",
-            out.to_str().unwrap(),
-        ]));
-        out
-    })
+    OUT.get_or_init(|| common::plan_default_job("plan", &["--no-plots", "-q"]))
 }
 
 /// `maamplan check --backend cpu` with `args` (the embedded default job

@@ -358,6 +358,14 @@ fn post_job() -> &'static PostJob {
     })
 }
 
+/// A prover over the post scene (the machine's margin, 0.3 mm steps).
+fn post_prover(m: &Machine) -> Prover<'_> {
+    static CPU: OnceLock<CpuBackend<'static>> = OnceLock::new();
+    let job = post_job();
+    let cpu = CPU.get_or_init(|| CpuBackend::new(&job.scene));
+    Prover::new(m, cpu, head_reach(&job.scene), m.margin, 0.3)
+}
+
 /// The post scene's own move: B from 10° to −10° (direct IK), C fixed.
 fn post_move(m: &Machine) -> (Axes, Axes) {
     let a = m.axes_at([-1.5, 0.0, 0.5], (10f64.to_radians(), 0.0));
@@ -367,10 +375,8 @@ fn post_move(m: &Machine) -> (Axes, Axes) {
 
 #[test]
 fn the_posts_move_is_free_at_its_ends_and_collides_between() {
-    let job = post_job();
     let m = Machine::default();
-    let cpu = CpuBackend::new(&job.scene);
-    let prover = Prover::new(&m, &cpu, head_reach(&job.scene), m.margin, 0.3);
+    let prover = post_prover(&m);
     let (a, b) = post_move(&m);
     assert!((orientation(m.rotary, a.tilt, a.c)[0] + 10f64.to_radians().sin()).abs() < 1e-6);
     let poses = prover.poses(&[(a, 3), (b, 4)]).unwrap();
@@ -400,11 +406,9 @@ fn a_move_that_collides_only_between_its_endpoints_is_counted_and_avoided() {
 /// the margin at any of 400 poses along it.
 #[test]
 fn the_post_scenes_program_keeps_the_margin_all_along_its_moves() {
-    let job = post_job();
     let m = Machine::default();
-    let cpu = CpuBackend::new(&job.scene);
-    let prover = Prover::new(&m, &cpu, head_reach(&job.scene), m.margin, 0.3);
-    let moves = job.plan.program.moves(&m);
+    let prover = post_prover(&m);
+    let moves = post_job().plan.program.moves(&m);
     let specs: Vec<MoveSpec> = moves
         .iter()
         .filter(|(f, mv)| *f != mv.to)

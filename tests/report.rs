@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{assert_success, cli, default_plan, simple_curve_plan};
+use common::{default_plan, simple_curve_plan};
 use maamplan::kinematics::Machine;
 use maamplan::plan::smooth::Smoothing;
 use maamplan::plan::{Plan, PlanOptions};
@@ -152,18 +152,7 @@ fn chromium() -> Option<&'static str> {
 /// default job, with its report), run once.
 fn planned_report() -> &'static Path {
     static OUT: OnceLock<PathBuf> = OnceLock::new();
-    OUT.get_or_init(|| {
-        let out = common::scratch().join("report");
-        assert_success(&cli(&[
-            "plan",
-            "--backend",
-            "cpu",
-            "-q",
-            "-o",
-            out.to_str().unwrap(),
-        ]));
-        out
-    })
+    OUT.get_or_init(|| common::plan_default_job("report", &["-q"]))
 }
 
 #[test]

@@ -294,8 +294,12 @@ fn reference_simulation() -> &'static Simulation {
     })
 }
 
-fn within_a_percent(a: f64, b: f64) -> bool {
-    (a - b).abs() <= 0.01 * b
+/// `got` is within a percent of the audit's `want`.
+fn assert_within_a_percent(got: f64, want: f64) {
+    assert!(
+        (got - want).abs() <= 0.01 * want,
+        "{got} vs the audit's {want}"
+    );
 }
 
 #[test]
@@ -317,29 +321,17 @@ fn on_the_reference_gcode_simulate_finds_the_fcl_audits_collisions() {
 #[test]
 fn on_the_reference_gcode_simulate_measures_the_fcl_audits_tip_deviation() {
     let s = &reference_simulation().summary;
-    assert!(
-        within_a_percent(s.tip_deviation_max_mm, AUDIT_DEVIATION_MAX),
-        "{}",
-        s.tip_deviation_max_mm
-    );
-    assert!(
-        within_a_percent(
-            s.tip_deviation_over_tolerance as f64,
-            AUDIT_DEVIATION_OVER as f64
-        ),
-        "{}",
-        s.tip_deviation_over_tolerance
+    assert_within_a_percent(s.tip_deviation_max_mm, AUDIT_DEVIATION_MAX);
+    assert_within_a_percent(
+        s.tip_deviation_over_tolerance as f64,
+        AUDIT_DEVIATION_OVER as f64,
     );
 }
 
 #[test]
 fn on_the_reference_gcode_simulate_measures_the_fcl_audits_tip_speed() {
     let s = &reference_simulation().summary;
-    assert!(
-        within_a_percent(s.speed_violation_pct, AUDIT_SPEED_PCT),
-        "{}",
-        s.speed_violation_pct
-    );
+    assert_within_a_percent(s.speed_violation_pct, AUDIT_SPEED_PCT);
     assert_eq!(s.extruding_moves, 41_473);
 }
 

@@ -317,15 +317,7 @@ pub fn margin_cases() -> Vec<MarginCase> {
     let mut cases = Vec::new();
 
     // The head's bottom face 0.04 mm above the square at z = 1.
-    let square = Mesh {
-        vertices: vec![
-            [-1.0, -1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [-1.0, 1.0, 1.0],
-        ],
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-    };
+    let square = plate([-1.0, 1.0], [-1.0, 1.0], 1.0);
     let tp = one_layer(square, [0.0, 0.0, 1.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(None)).unwrap();
     let hover = [0.0, 0.0, 1.04];
@@ -530,6 +522,22 @@ pub fn assert_success(o: &Output) {
 pub fn read_json(path: &Path) -> serde_json::Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).unwrap()
+}
+
+/// `maamplan plan --backend cpu` with `args` on the embedded default job,
+/// written into `name` in this binary's scratch folder; the folder. For
+/// fixtures that run the command once per binary.
+pub fn plan_default_job(name: &str, args: &[&str]) -> PathBuf {
+    let out = scratch().join(name);
+    let o = maamplan()
+        .args(["plan", "--backend", "cpu"])
+        .args(args)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_success(&o);
+    out
 }
 
 /// `plan` on the cpu backend, progress ignored.
