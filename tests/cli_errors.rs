@@ -231,8 +231,8 @@ fn stl_binary_truncated() {
 }
 
 /// (A head 10 mm across: the part is subdivided to an eighth of the head
-/// beside the head's build, so a 1 mm head would cost seconds before the
-/// refusal.)
+/// beside the head's build, and a 1 mm head would have the part and the
+/// platform cut into a great many pieces before the refusal.)
 #[test]
 fn open_head_is_refused() {
     assert_mesh_error(

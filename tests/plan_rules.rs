@@ -430,7 +430,7 @@ fn verbose_stage_lines_arrive_as_stages_end_when_piped() {
     use std::io::{BufRead, BufReader};
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    // The embedded default job: seconds of planning after its load.
+    // The embedded default job: its planning goes on well after its load.
     let mut child = common::maamplan()
         .args(["plan", "--backend", "cpu", "--no-plots", "-v", "-o"])
         .arg(&out)
