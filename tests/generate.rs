@@ -5,19 +5,25 @@
 //! chord error, the written folder read back, and malformed meshes through
 //! the CLI (one line, exit 2, nothing written).
 
+mod common;
+
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::generate::slice::frame;
-use maamplan::generate::{isoplanar, slice, Fill, IsoplanarOptions, SliceOptions};
+use maamplan::generate::{
+    isoplanar, slice, Fill, IsoplanarOptions, IsoplanarResult, SliceOptions, SliceResult,
+};
 use maamplan::geometry::point_triangle_distance::point_triangle_distance;
 use maamplan::geometry::Mesh;
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath::{load_toolpath, mesh_obj, toolpath_files};
 use maamplan::io::Placement;
 use maamplan::kinematics::Machine;
-use maamplan::plan::{plan, PlanOptions};
+use maamplan::plan::{plan, Plan, PlanOptions, Stage};
 use maamplan::scene::{Scene, SceneConfig};
-use std::process::Command;
+use maamplan::toolpath::Toolpath;
+use std::path::Path;
+use std::sync::OnceLock;
 
 /// The paper's oblique direction.
 fn oblique() -> [f64; 3] {
@@ -73,52 +79,57 @@ fn path_length(mesh: &Mesh, fill: Fill) -> (f64, f64, f64) {
     )
 }
 
-#[test]
-fn paper_003_table_1_pattern() {
-    let d = oblique();
-    let size = [20.0, 20.0, 10.0];
-    let geometries = [
-        ("(a) solid", oblique_cuboid(d, size, &[], 0.0)),
-        (
-            "(b) one cavity",
-            oblique_cuboid(d, size, &[([5.0, 5.0, 1.5], [15.0, 15.0, 8.5])], 0.0),
-        ),
-        (
-            "(c) two cavities",
-            oblique_cuboid(
-                d,
-                size,
-                &[
-                    ([3.0, 4.0, 1.5], [7.0, 16.0, 8.5]),
-                    ([13.0, 4.0, 1.5], [17.0, 16.0, 8.5]),
-                ],
-                0.0,
-            ),
-        ),
-    ];
-    for (k, (name, mesh)) in geometries.iter().enumerate() {
-        let (z, zt, ze) = path_length(mesh, Fill::Zigzag);
-        let (o, ot, oe) = path_length(mesh, Fill::Oneway);
-        let (m, mt, me) = path_length(mesh, Fill::Mzz);
-        eprintln!(
-            "{name}: zig-zag {z:.1} (travel {zt:.1}, between layers {ze:.1}), one-way {o:.1} (travel {ot:.1}, {oe:.1}), MZZ {m:.1} (travel {mt:.1}, {me:.1}), saving {:.1} %",
-            100.0 * (z - m) / z
-        );
-        assert!(m <= z + 1e-6, "{name}: MZZ {m} longer than zig-zag {z}");
-        assert!(
-            o > z && o > m,
-            "{name}: one-way {o} is not the longest ({z}, {m})"
-        );
-        // MZZ starts each layer near where the last one ended.
-        assert!(me < ze, "{name}: MZZ between layers {me} vs zig-zag {ze}");
-        if k == 0 {
-            assert!((m - z).abs() < 1e-6, "{name}: no cavity, MZZ = zig-zag");
-            assert_eq!(zt, 0.0, "{name}: a plain zig-zag never travels");
-        } else {
-            assert!(m < z - 1.0, "{name}: MZZ {m} not shorter than zig-zag {z}");
-            assert!(mt < zt, "{name}: MZZ travels more");
-        }
+/// Table 1's pattern on one geometry: MZZ no longer than zig-zag,
+/// one-way the longest, MZZ starting each layer nearer where the last
+/// ended; with no cavity MZZ is zig-zag and never travels, with cavities
+/// it is shorter and travels less.
+fn assert_table_1_pattern(name: &str, mesh: &Mesh, cavities: bool) {
+    let (z, zt, ze) = path_length(mesh, Fill::Zigzag);
+    let (o, ot, oe) = path_length(mesh, Fill::Oneway);
+    let (m, mt, me) = path_length(mesh, Fill::Mzz);
+    eprintln!(
+        "{name}: zig-zag {z:.1} (travel {zt:.1}, between layers {ze:.1}), one-way {o:.1} (travel {ot:.1}, {oe:.1}), MZZ {m:.1} (travel {mt:.1}, {me:.1}), saving {:.1} %",
+        100.0 * (z - m) / z
+    );
+    assert!(m <= z + 1e-6, "{name}: MZZ {m} longer than zig-zag {z}");
+    assert!(
+        o > z && o > m,
+        "{name}: one-way {o} is not the longest ({z}, {m})"
+    );
+    // MZZ starts each layer near where the last one ended.
+    assert!(me < ze, "{name}: MZZ between layers {me} vs zig-zag {ze}");
+    if cavities {
+        assert!(m < z - 1.0, "{name}: MZZ {m} not shorter than zig-zag {z}");
+        assert!(mt < zt, "{name}: MZZ travels more");
+    } else {
+        assert!((m - z).abs() < 1e-6, "{name}: no cavity, MZZ = zig-zag");
+        assert_eq!(zt, 0.0, "{name}: a plain zig-zag never travels");
     }
+}
+
+const CUBOID: [f32; 3] = [20.0, 20.0, 10.0];
+
+#[test]
+fn paper_003_table_1_pattern_solid() {
+    let mesh = oblique_cuboid(oblique(), CUBOID, &[], 0.0);
+    assert_table_1_pattern("(a) solid", &mesh, false);
+}
+
+#[test]
+fn paper_003_table_1_pattern_one_cavity() {
+    let cavity = ([5.0, 5.0, 1.5], [15.0, 15.0, 8.5]);
+    let mesh = oblique_cuboid(oblique(), CUBOID, &[cavity], 0.0);
+    assert_table_1_pattern("(b) one cavity", &mesh, true);
+}
+
+#[test]
+fn paper_003_table_1_pattern_two_cavities() {
+    let cavities = [
+        ([3.0, 4.0, 1.5], [7.0, 16.0, 8.5]),
+        ([13.0, 4.0, 1.5], [17.0, 16.0, 8.5]),
+    ];
+    let mesh = oblique_cuboid(oblique(), CUBOID, &cavities, 0.0);
+    assert_table_1_pattern("(c) two cavities", &mesh, true);
 }
 
 #[test]
@@ -170,28 +181,78 @@ fn cavities_and_islands_are_respected() {
     assert!(island_points > 0);
 }
 
+/// A small oblique cuboid with a cavity, sliced along the paper's
+/// direction, the folder written and read back, and the read-back
+/// toolpath planned (a wide cone head over a plate) — once.
+struct Sliced {
+    result: SliceResult,
+    back: Toolpath,
+    plan: Plan,
+    /// The stages as progress reported them ending.
+    ended: Vec<Stage>,
+}
+
+fn sliced() -> &'static Sliced {
+    static SLICED: OnceLock<Sliced> = OnceLock::new();
+    SLICED.get_or_init(|| {
+        let part = oblique_cuboid(
+            oblique(),
+            [6.0, 6.0, 3.0],
+            &[([2.0, 2.0, 0.8], [4.0, 4.0, 2.2])],
+            1.0,
+        );
+        let result = slice(
+            &part,
+            &SliceOptions {
+                dir: oblique(),
+                layer: 1.0,
+                spacing: 1.0,
+                fill: Fill::Mzz,
+            },
+        )
+        .unwrap();
+        let out = common::scratch().join("sliced");
+        write_folder_atomic(&out, &toolpath_files(&result.toolpath)).unwrap();
+        let back = load_toolpath(&out, &Placement::default()).unwrap();
+        let zmin = part
+            .vertices
+            .iter()
+            .map(|v| v[2])
+            .fold(f32::INFINITY, f32::min);
+        let platform = box_mesh([-40.0, -40.0, zmin - 5.0], [40.0, 40.0, zmin]);
+        let head = cone_head(20.0, 20.0, 30.0, 32);
+        let scene = Scene::build(&back, &head, &platform, &SceneConfig::default()).unwrap();
+        let backend = CpuBackend::new(&scene);
+        let mut ended = Vec::new();
+        let plan = plan(
+            &scene,
+            &back,
+            &Machine::default(),
+            &backend,
+            &PlanOptions::default(),
+            &mut |e| {
+                if let maamplan::plan::Progress::Done(s) = e {
+                    ended.push(s.clone());
+                }
+            },
+        )
+        .unwrap();
+        Sliced {
+            result,
+            back,
+            plan,
+            ended,
+        }
+    })
+}
+
+/// Every waypoint on its slice plane, nozzle along the slicing direction.
 #[test]
-fn slice_then_plan_end_to_end() {
+fn sliced_waypoints_lie_on_their_planes() {
+    let r = &sliced().result;
     let d = oblique();
-    let part = oblique_cuboid(
-        d,
-        [6.0, 6.0, 3.0],
-        &[([2.0, 2.0, 0.8], [4.0, 4.0, 2.2])],
-        1.0,
-    );
-    let r = slice(
-        &part,
-        &SliceOptions {
-            dir: d,
-            layer: 1.0,
-            spacing: 1.0,
-            fill: Fill::Mzz,
-        },
-    )
-    .unwrap();
     let tp = &r.toolpath;
     assert!(tp.layers.len() >= 3, "{} layers", tp.layers.len());
-    // Every waypoint on its slice plane, nozzle along d.
     for (l, s) in tp.layers.iter().zip(&r.layers) {
         for w in &l.waypoints {
             let t: f64 = (0..3).map(|k| w.pos[k] as f64 * d[k]).sum();
@@ -199,11 +260,12 @@ fn slice_then_plan_end_to_end() {
             assert!((0..3).all(|k| (w.dir[k] as f64 - d[k]).abs() < 1e-6));
         }
     }
-    // Written and read back.
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("tp");
-    write_folder_atomic(&out, &toolpath_files(tp)).unwrap();
-    let back = load_toolpath(&out, &Placement::default()).unwrap();
+}
+
+#[test]
+fn a_sliced_toolpath_reads_back_as_written() {
+    let Sliced { result, back, .. } = sliced();
+    let tp = &result.toolpath;
     assert_eq!(back.layers.len(), tp.layers.len());
     for (a, b) in back.layers.iter().zip(&tp.layers) {
         assert_eq!(a.name, b.name);
@@ -217,35 +279,26 @@ fn slice_then_plan_end_to_end() {
                 == b.surface.as_ref().unwrap().triangles.len()
         );
     }
-    let zmin = part
-        .vertices
-        .iter()
-        .map(|v| v[2])
-        .fold(f32::INFINITY, f32::min);
-    let platform = box_mesh([-40.0, -40.0, zmin - 5.0], [40.0, 40.0, zmin]);
-    let head = cone_head(20.0, 20.0, 30.0, 32);
-    let scene = Scene::build(&back, &head, &platform, &SceneConfig::default()).unwrap();
-    let backend = CpuBackend::new(&scene);
-    let mut ended = Vec::new();
-    let p = plan(
-        &scene,
-        &back,
-        &Machine::default(),
-        &backend,
-        &PlanOptions::default(),
-        &mut |e| {
-            if let maamplan::plan::Progress::Done(s) = e {
-                ended.push(s.clone());
-            }
-        },
-    )
-    .unwrap();
-    assert_eq!(p.waypoints.len(), back.waypoint_count());
-    // Every stage was reported as it ended, with the figures the plan keeps.
-    assert_eq!(ended, p.stages);
-    assert_plan_is_printable(&p, &Machine::default());
-    // Planar layers need no tilt: the nozzle stays along the slicing
-    // direction wherever nothing forces it away.
+}
+
+/// Planned, every waypoint is there, printable; every stage was reported
+/// as it ended, with the figures the plan keeps.
+#[test]
+fn a_sliced_toolpath_plans_printably() {
+    let Sliced {
+        back, plan, ended, ..
+    } = sliced();
+    assert_eq!(plan.waypoints.len(), back.waypoint_count());
+    assert_eq!(ended, &plan.stages);
+    assert_plan_is_printable(plan, &Machine::default());
+}
+
+/// Planar layers need no tilt: the nozzle stays along the slicing
+/// direction wherever nothing forces it away.
+#[test]
+fn planar_layers_keep_the_slicing_direction() {
+    let p = &sliced().plan;
+    let d = oblique();
     let along = p
         .waypoints
         .iter()
@@ -316,18 +369,31 @@ fn saddle() -> Mesh {
     grid(24, 10.0, |x, y| (x * x - y * y) / (2.0 * R) + 5.0)
 }
 
+/// The saddle's iso-planar toolpath with the default options, once.
+fn saddle_isoplanar() -> &'static IsoplanarResult {
+    static RESULT: OnceLock<IsoplanarResult> = OnceLock::new();
+    RESULT.get_or_init(|| isoplanar(&saddle(), &IsoplanarOptions::default()).unwrap())
+}
+
+/// How far a curve of deposition rates is from mirror symmetry about 90°:
+/// the largest relative difference between θ and 180° − θ.
+fn asymmetry(c: &[maamplan::generate::isoplanar::CurvePoint]) -> f64 {
+    let n = c.len() - 1;
+    (0..=n)
+        .map(|i| (c[i].v_e - c[n - i].v_e).abs() / c[i].v_e.max(c[n - i].v_e))
+        .fold(0.0, f64::max)
+}
+
 #[test]
 fn saddle_curve_is_symmetric_about_90_degrees() {
-    let r = isoplanar(&saddle(), &IsoplanarOptions::default()).unwrap();
+    let r = saddle_isoplanar();
     let c = &r.curve;
     assert_eq!(c.len(), 91);
     let n = c.len() - 1;
-    let mut worst = 0.0f64;
     for i in 0..=n {
-        let (a, b) = (c[i], c[n - i]);
-        assert!((a.theta_deg + b.theta_deg - 180.0).abs() < 1e-9);
-        worst = worst.max((a.v_e - b.v_e).abs() / a.v_e.max(b.v_e));
+        assert!((c[i].theta_deg + c[n - i].theta_deg - 180.0).abs() < 1e-9);
     }
+    let worst = asymmetry(c);
     let hi = c.iter().map(|p| p.v_e).fold(0.0, f64::max);
     let lo = c.iter().map(|p| p.v_e).fold(f64::INFINITY, f64::min);
     eprintln!(
@@ -342,17 +408,19 @@ fn saddle_curve_is_symmetric_about_90_degrees() {
         "the saddle's curve should not be flat: {lo}..{hi}"
     );
     assert!(r.theta_star_deg <= 90.0, "ties go to the first maximum");
+}
 
-    // The check can fail: a cylinder whose axis is 30° off x is not
-    // mirror-symmetric about the y = 0 plane, and neither is its curve.
+/// The symmetry check can fail: a cylinder whose axis is 30° off x is not
+/// mirror-symmetric about the y = 0 plane, and neither is its curve.
+#[test]
+fn a_tilted_cylinders_curve_is_not_symmetric() {
     let (c30, s30) = (30f32.to_radians().cos(), 30f32.to_radians().sin());
     let cyl = grid(24, 10.0, |x, y| {
         (x * c30 + y * s30).powi(2) / (2.0 * R) + 5.0
     });
     let c = isoplanar(&cyl, &IsoplanarOptions::default()).unwrap().curve;
-    let asym = (0..=n)
-        .map(|i| (c[i].v_e - c[n - i].v_e).abs() / c[i].v_e.max(c[n - i].v_e))
-        .fold(0.0, f64::max);
+    assert_eq!(c.len(), 91);
+    let asym = asymmetry(&c);
     eprintln!("tilted cylinder: asymmetry {asym:.3}");
     assert!(asym > 0.01, "{asym}");
 }
@@ -388,7 +456,7 @@ fn distance_to_mesh(m: &Mesh, p: [f64; 3]) -> f64 {
 fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
     let mesh = saddle();
     let opts = IsoplanarOptions::default();
-    let r = isoplanar(&mesh, &opts).unwrap();
+    let r = saddle_isoplanar();
     let wp = &r.toolpath.layers[0].waypoints;
     assert!(wp.len() > 100);
     let mut worst_chord = 0.0f64;
@@ -427,7 +495,13 @@ fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
         r.theta_star_deg
     );
     assert!(worst_chord <= opts.chord_error + 1e-4, "{worst_chord}");
-    // Zig-zag: consecutive curves are joined mostly by short links, and the path covers the surface.
+}
+
+/// Zig-zag: consecutive curves are joined mostly by short links, and the
+/// path covers the surface.
+#[test]
+fn isoplanar_curves_are_joined_by_short_links() {
+    let r = saddle_isoplanar();
     assert!(
         r.travel_length < 0.1 * r.print_length,
         "travel {} print {}",
@@ -437,46 +511,53 @@ fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
     assert!(r.side_steps.len() > 20);
 }
 
+/// The saddle's iso-planar toolpath on a plate under a wide cone head.
+fn saddle_scene() -> &'static Scene {
+    static SCENE: OnceLock<Scene> = OnceLock::new();
+    SCENE.get_or_init(|| {
+        let mesh = saddle();
+        let zmin = mesh
+            .vertices
+            .iter()
+            .map(|v| v[2])
+            .fold(f32::INFINITY, f32::min);
+        let platform = box_mesh([-40.0, -40.0, zmin - 8.0], [40.0, 40.0, zmin - 3.0]);
+        let head = cone_head(20.0, 20.0, 30.0, 32);
+        Scene::build(
+            &saddle_isoplanar().toolpath,
+            &head,
+            &platform,
+            &SceneConfig::default(),
+        )
+        .unwrap()
+    })
+}
+
 #[test]
 fn isoplanar_then_plan_end_to_end() {
-    let mesh = saddle();
-    let r = isoplanar(&mesh, &IsoplanarOptions::default()).unwrap();
-    let zmin = mesh
-        .vertices
-        .iter()
-        .map(|v| v[2])
-        .fold(f32::INFINITY, f32::min);
-    let platform = box_mesh([-40.0, -40.0, zmin - 8.0], [40.0, 40.0, zmin - 3.0]);
-    let head = cone_head(20.0, 20.0, 30.0, 32);
-    let scene = Scene::build(&r.toolpath, &head, &platform, &SceneConfig::default()).unwrap();
-    let backend = CpuBackend::new(&scene);
-    let p = plan(
-        &scene,
-        &r.toolpath,
+    let tp = &saddle_isoplanar().toolpath;
+    let p = common::plan_cpu(
+        saddle_scene(),
+        tp,
         &Machine::default(),
-        &backend,
         &PlanOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
-    assert_eq!(p.waypoints.len(), r.toolpath.waypoint_count());
+    );
+    assert_eq!(p.waypoints.len(), tp.waypoint_count());
     assert_plan_is_printable(&p, &Machine::default());
-    // Unsmoothed, the nozzle follows the surface normal: nothing collides,
-    // so orientations move only in the singular region (α) and to spread
-    // fast turns (the spread tolerance).
+    assert!(p.plan.speed_violation_pct <= p.input.speed_violation_pct);
+}
+
+/// Unsmoothed, the nozzle follows the surface normal: nothing collides,
+/// so orientations move only in the singular region (α) and to spread
+/// fast turns (the spread tolerance).
+#[test]
+fn unsmoothed_isoplanar_plans_keep_the_surface_normal() {
     let opts = PlanOptions {
         smoothing: maamplan::plan::smooth::Smoothing::None,
         ..PlanOptions::default()
     };
-    let raw = plan(
-        &scene,
-        &r.toolpath,
-        &Machine::default(),
-        &backend,
-        &opts,
-        &mut |_| {},
-    )
-    .unwrap();
+    let tp = &saddle_isoplanar().toolpath;
+    let raw = common::plan_cpu(saddle_scene(), tp, &Machine::default(), &opts);
     assert_plan_is_printable(&raw, &Machine::default());
     let bound = (opts.alpha + opts.spread_tolerance).to_degrees() + 0.01;
     assert!(
@@ -485,111 +566,140 @@ fn isoplanar_then_plan_end_to_end() {
         raw.plan.mean_deviation_deg,
         raw.plan.max_deviation_deg
     );
-    assert!(p.plan.speed_violation_pct <= p.input.speed_violation_pct);
 }
 
+/// Run the CLI with `args`: (exit code, stderr).
 fn cli(args: &[&str]) -> (i32, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let out = common::cli(args);
+    (out.status.code().unwrap_or(-1), common::stderr(&out))
+}
+
+/// Write `mesh` as `name` into `dir` and run `command` on it with `args`
+/// and `-o out` (in `dir`): (exit code, stderr, the output folder).
+fn generate(
+    dir: &Path,
+    command: &str,
+    name: &str,
+    mesh: &Mesh,
+    args: &[&str],
+) -> (i32, String, std::path::PathBuf) {
+    let input = dir.join(name);
+    std::fs::write(&input, mesh_obj(mesh)).unwrap();
+    let out = dir.join(format!("out-{name}"));
+    let (code, err) = cli(&[
+        &[command, input.to_str().unwrap()],
+        args,
+        &["-o", out.to_str().unwrap()],
+    ]
+    .concat());
+    (code, err, out)
 }
 
 #[test]
-fn cli_writes_the_folder_and_summaries() {
+fn slice_writes_the_folder_and_its_summary() {
     let dir = tempfile::tempdir().unwrap();
-    let part = dir.path().join("part.obj");
-    std::fs::write(
-        &part,
-        mesh_obj(&oblique_cuboid([0.0, 0.0, 1.0], [4.0, 3.0, 2.0], &[], 0.0)),
-    )
-    .unwrap();
-    let out = dir.path().join("sliced");
-    let (code, err) = cli(&[
+    let part = oblique_cuboid([0.0, 0.0, 1.0], [4.0, 3.0, 2.0], &[], 0.0);
+    let (code, err, out) = generate(
+        dir.path(),
         "slice",
-        part.to_str().unwrap(),
-        "--dir",
-        "0,0,1",
-        "--layer",
-        "1",
-        "--fill",
-        "zigzag",
-        "--spacing",
-        "0.5",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+        "part.obj",
+        &part,
+        &[
+            "--dir",
+            "0,0,1",
+            "--layer",
+            "1",
+            "--fill",
+            "zigzag",
+            "--spacing",
+            "0.5",
+        ],
+    );
     assert_eq!(code, 0, "{err}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let s = common::read_json(&out.join("summary.json"));
     assert_eq!(s["layers"].as_array().unwrap().len(), 2);
     assert_eq!(s["total"]["waypoints"], 2 * 8 * 6);
     assert!(out.join("waypoint/1.txt").is_file() && out.join("layer/1.obj").is_file());
-    let surf = dir.path().join("saddle.obj");
-    std::fs::write(
-        &surf,
-        mesh_obj(&grid(8, 5.0, |x, y| (x * x - y * y) / 40.0)),
-    )
-    .unwrap();
-    let out2 = dir.path().join("iso");
-    let (code, err) = cli(&[
-        "isoplanar",
-        surf.to_str().unwrap(),
-        "-o",
-        out2.to_str().unwrap(),
-    ]);
-    assert_eq!(code, 0, "{err}");
-    let s: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out2.join("summary.json")).unwrap()).unwrap();
-    assert!(s["theta_star_deg"].is_number());
-    assert_eq!(s["curve"].as_array().unwrap().len(), 91);
-    assert!(out2.join("waypoint/0.txt").is_file() && out2.join("layer/0.obj").is_file());
 }
 
 #[test]
-fn malformed_meshes_are_one_line_errors_with_exit_2() {
+fn isoplanar_writes_the_folder_and_its_summary() {
     let dir = tempfile::tempdir().unwrap();
-    let b = box_mesh([0.0; 3], [2.0; 3]);
-    let mut open = b.clone();
+    let surface = grid(8, 5.0, |x, y| (x * x - y * y) / 40.0);
+    let (code, err, out) = generate(dir.path(), "isoplanar", "saddle.obj", &surface, &[]);
+    assert_eq!(code, 0, "{err}");
+    let s = common::read_json(&out.join("summary.json"));
+    assert!(s["theta_star_deg"].is_number());
+    assert_eq!(s["curve"].as_array().unwrap().len(), 91);
+    assert!(out.join("waypoint/0.txt").is_file() && out.join("layer/0.obj").is_file());
+}
+
+/// Each of `commands` refuses `mesh` in one line naming the file and
+/// saying `needle`, exit 2, and writes nothing.
+fn assert_mesh_refused(commands: &[&str], mesh: &Mesh, needle: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    for command in commands {
+        let name = format!("{command}.obj");
+        let (code, err, out) = generate(dir.path(), command, &name, mesh, &[]);
+        assert_eq!(code, 2, "{command} {name}: {err}");
+        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+        assert_eq!(lines.len(), 1, "{err}");
+        assert!(err.contains(&name) && err.contains(needle), "{err}");
+        assert!(!out.exists(), "{command} {name} wrote output");
+    }
+}
+
+/// A closed box.
+fn closed() -> Mesh {
+    box_mesh([0.0; 3], [2.0; 3])
+}
+
+/// The box with one triangle gone.
+fn open() -> Mesh {
+    let mut open = closed();
     open.triangles.pop();
-    let mut fin = b.clone();
+    open
+}
+
+/// The box with a fin: a triangle on one of its edges (three triangles
+/// at that edge).
+fn fin() -> Mesh {
+    let mut fin = closed();
     fin.vertices.push([5.0, 5.0, 5.0]);
     fin.triangles
         .push([fin.triangles[0][0], fin.triangles[0][1], 8]);
-    let mut deg = b.clone();
+    fin
+}
+
+/// The box with a degenerate triangle (three points on a line) beside it.
+fn degenerate() -> Mesh {
+    let mut deg = closed();
     deg.vertices
         .extend([[0.5, 0.5, 0.5], [0.6, 0.6, 0.6], [0.7, 0.7, 0.7]]);
     deg.triangles.push([8, 9, 10]);
-    let cases: [(&str, &Mesh, &str, &str); 5] = [
-        ("open.obj", &open, "slice", "not closed"),
-        ("fin.obj", &fin, "slice", "non-manifold"),
-        ("fin2.obj", &fin, "isoplanar", "non-manifold"),
-        ("deg.obj", &deg, "slice", "degenerate"),
-        ("deg2.obj", &deg, "isoplanar", "degenerate"),
-    ];
-    for (name, mesh, cmd, needle) in cases {
-        let p = dir.path().join(name);
-        std::fs::write(&p, mesh_obj(mesh)).unwrap();
-        let out = dir.path().join(format!("out-{name}"));
-        let (code, err) = cli(&[cmd, p.to_str().unwrap(), "-o", out.to_str().unwrap()]);
-        assert_eq!(code, 2, "{cmd} {name}: {err}");
-        let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-        assert_eq!(lines.len(), 1, "{err}");
-        assert!(err.contains(name) && err.contains(needle), "{err}");
-        assert!(!out.exists(), "{cmd} {name} wrote output");
-    }
-    // An open surface is fine for isoplanar.
-    let p = dir.path().join("open-ok.obj");
-    std::fs::write(&p, mesh_obj(&grid(4, 2.0, |_, _| 0.0))).unwrap();
-    let (code, err) = cli(&[
-        "isoplanar",
-        p.to_str().unwrap(),
-        "-o",
-        dir.path().join("ok").to_str().unwrap(),
-    ]);
+    deg
+}
+
+#[test]
+fn slice_refuses_an_open_mesh() {
+    assert_mesh_refused(&["slice"], &open(), "not closed");
+}
+
+#[test]
+fn a_non_manifold_mesh_is_refused() {
+    assert_mesh_refused(&["slice", "isoplanar"], &fin(), "non-manifold");
+}
+
+#[test]
+fn a_degenerate_triangle_is_refused() {
+    assert_mesh_refused(&["slice", "isoplanar"], &degenerate(), "degenerate");
+}
+
+/// An open surface is fine for isoplanar.
+#[test]
+fn isoplanar_takes_an_open_surface() {
+    let dir = tempfile::tempdir().unwrap();
+    let flat = grid(4, 2.0, |_, _| 0.0);
+    let (code, err, _) = generate(dir.path(), "isoplanar", "open-ok.obj", &flat, &[]);
     assert_eq!(code, 0, "{err}");
 }

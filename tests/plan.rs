@@ -1,28 +1,35 @@
 //! The planner end to end: simple_curve against the paper's and the
 //! reference G-code's figures, the embedded default, G-code parse-back, and
-//! the `plan` command's outputs.
+//! the `plan` command's outputs. simple_curve and the default job are
+//! planned once ([`common::simple_curve_plan`], [`common::default_plan`])
+//! and the `plan` command runs once ([`plan_command`]); each test checks
+//! one behaviour of them.
 
 mod common;
 
-use common::default_scene;
+use common::{assert_success, data, default_plan, read_json, simple_curve_plan};
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::Backend;
 use maamplan::io::gcode::{
     axes_of, parse_g1, read_program, rotary_motion, write_gcode, GcodeHeader,
 };
+use maamplan::io::gcode_read::GcodeMove;
 use maamplan::kinematics::Machine;
 use maamplan::plan::program::MoveKind;
-use maamplan::plan::{plan, PlanOptions};
 use maamplan::scene::Query;
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
-use common::data;
-
-/// Reference G-code figures quoted by the planner issue.
+/// Reference G-code figures quoted by the planner issue: (J, largest
+/// rotary step), in degrees.
 fn reference() -> (f64, f64) {
-    let text =
-        std::fs::read_to_string(data().join("reference_gcode/simple_curve_Gcode.txt")).unwrap();
-    assert_eq!(parse_g1(&text).len(), 41_494);
-    rotary_motion(&read_program(&text, &Machine::default()).unwrap())
+    static FIGURES: OnceLock<(f64, f64)> = OnceLock::new();
+    *FIGURES.get_or_init(|| {
+        let text =
+            std::fs::read_to_string(data().join("reference_gcode/simple_curve_Gcode.txt")).unwrap();
+        assert_eq!(parse_g1(&text).len(), 41_494);
+        rotary_motion(&read_program(&text, &Machine::default()).unwrap())
+    })
 }
 
 #[test]
@@ -33,65 +40,94 @@ fn reference_gcode_rotary_motion() {
 }
 
 #[test]
-fn simple_curve_plan_meets_the_paper() {
-    let job = common::simple_curve_job();
+fn no_simple_curve_layer_points_down() {
+    let (job, _) = simple_curve_plan();
     assert!(
         job.flipped_layers.is_empty(),
         "no simple_curve layer points down"
     );
-    let scene = &job.scene;
-    let machine = Machine::default();
-    let cpu = CpuBackend::new(scene);
-    let p = plan(
-        scene,
-        &job.toolpath,
-        &machine,
-        &cpu,
-        &PlanOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
-    let (ref_j, ref_max) = reference();
+}
 
-    // The input, measured by the same rules, misses the tip-speed range about
-    // as often as paper 000's "before" (17.74 %, Fig. 10).
+/// The input, measured by the same rules, misses the tip-speed range about
+/// as often as paper 000's "before" (17.74 %, Fig. 10), collides and
+/// passes the singular region.
+#[test]
+fn simple_curve_input_measures_as_the_papers_before() {
+    let (_, p) = simple_curve_plan();
     assert!(
         (p.input.speed_violation_pct - 17.74).abs() < 1.5,
         "input {}",
         p.input.speed_violation_pct
     );
     assert!(p.input.residual_collisions > 0 && p.input.singular_waypoints > 10_000);
+}
 
-    // The written program, re-checked: nothing within the margin.
+/// The written program, re-checked: nothing within the margin, every
+/// waypoint printed, no breaks.
+#[test]
+fn simple_curve_plan_keeps_the_margin_and_prints_every_waypoint() {
+    let (_, p) = simple_curve_plan();
     assert_eq!(p.plan.residual_collisions, 0);
     assert_eq!(p.plan.colliding_edges, 0);
     assert!(p.plan.program_moves > p.waypoints.len());
     assert_eq!(p.plan.skipped_waypoints, 0);
     assert_eq!(p.plan.breaks, 0);
+}
+
+#[test]
+fn simple_curve_plan_keeps_the_tip_speed_in_range() {
+    let (_, p) = simple_curve_plan();
     assert!(
         p.plan.speed_violation_pct < 0.14,
         "plan {}",
         p.plan.speed_violation_pct
     );
-    // No worse than before the program was checked move by move (24,614°,
-    // 10.9°), and far below the reference G-code.
+}
+
+/// No worse than before the program was checked move by move (24,614°,
+/// 10.9°), and far below the reference G-code.
+#[test]
+fn simple_curve_plan_turns_less_than_the_reference_gcode() {
+    let (_, p) = simple_curve_plan();
+    let (ref_j, ref_max) = reference();
     assert!(p.plan.j_deg <= 24_614.5, "J {}", p.plan.j_deg);
     assert!(p.plan.max_step_deg <= 10.95, "step {}", p.plan.max_step_deg);
     assert!(p.plan.j_deg < ref_j && p.plan.max_step_deg < ref_max);
-    // The tip stays on its bead, travels take the short way round, and
-    // layer heights are measured, not clamped.
-    assert!(p.plan.tip_deviation_max_mm <= machine.tip_tolerance);
+}
+
+/// The tip stays on its bead, travels take the short way round, and layer
+/// heights are measured, not clamped.
+#[test]
+fn simple_curve_tip_stays_on_its_bead_and_travels_take_the_short_way() {
+    let (_, p) = simple_curve_plan();
+    assert!(p.plan.tip_deviation_max_mm <= Machine::default().tip_tolerance);
     assert!(p.plan.travel_c_max_deg <= 180.0);
     assert!(
         p.plan.height_clamped_pct < 1.0,
         "{}",
         p.plan.height_clamped_pct
     );
+}
 
-    // The G-code parses back to the program's moves, value for value.
-    let gcode = write_gcode(&machine, &p.program, &GcodeHeader::default());
-    let back = read_program(&gcode, &machine).unwrap();
-    let all = p.program.moves(&machine);
+/// simple_curve's program written as G-code and read back.
+fn simple_curve_gcode_read_back() -> &'static [GcodeMove] {
+    static BACK: OnceLock<Vec<GcodeMove>> = OnceLock::new();
+    BACK.get_or_init(|| {
+        let machine = Machine::default();
+        let gcode = write_gcode(
+            &machine,
+            &simple_curve_plan().1.program,
+            &GcodeHeader::default(),
+        );
+        read_program(&gcode, &machine).unwrap()
+    })
+}
+
+/// The G-code parses back to the program's moves, value for value.
+#[test]
+fn simple_curve_gcode_parses_back_to_the_program() {
+    let back = simple_curve_gcode_read_back();
+    let all = simple_curve_plan().1.program.moves(&Machine::default());
     // (A repeated waypoint is a print move going nowhere: written, but no
     // motion for a controller.)
     let moves: Vec<_> = all
@@ -120,10 +156,17 @@ fn simple_curve_plan_meets_the_paper() {
             assert!(matches!(mv.kind, MoveKind::Print | MoveKind::Prime));
         }
     }
-    // Vetted as a user would vet it (`simulate`): the program read back,
-    // printed in its own order, every move checked — nothing collides, the
-    // tip stays on its bead, every waypoint is printed.
-    let sim = common::simulate_cpu(&job.toolpath, scene, &machine, &back);
+}
+
+/// Vetted as a user would vet it (`simulate`): the program read back,
+/// printed in its own order, every move checked — nothing collides, the
+/// tip stays on its bead, every waypoint is printed.
+#[test]
+fn simple_curve_gcode_passes_simulate() {
+    let (job, _) = simple_curve_plan();
+    let machine = Machine::default();
+    let back = simple_curve_gcode_read_back();
+    let sim = common::simulate_cpu(&job.toolpath, &job.scene, &machine, back);
     assert_eq!(
         sim.summary.colliding_moves,
         0,
@@ -136,17 +179,30 @@ fn simple_curve_plan_meets_the_paper() {
     );
     assert!(sim.summary.tip_deviation_max_mm <= machine.tip_tolerance);
     assert_eq!(sim.summary.printed_waypoints, job.toolpath.waypoint_count());
-    let (j, max) = rotary_motion(&back);
+}
+
+/// The G-code read back turns the rotary axes as much as the plan says.
+#[test]
+fn simple_curve_gcode_turns_as_planned() {
+    let (_, p) = simple_curve_plan();
+    let (j, max) = rotary_motion(simple_curve_gcode_read_back());
     assert!(
         (j - p.plan.j_deg).abs() < 0.01 * p.plan.j_deg + 5.0,
         "G-code J {j} vs plan {}",
         p.plan.j_deg
     );
     assert!(max <= p.plan.max_step_deg + 0.01);
+}
 
-    // Independently of the planner's bookkeeping: every waypoint the
-    // program reaches, posed by its written axes, touches nothing.
-    let queries: Vec<Query> = all
+/// Independently of the planner's bookkeeping: every waypoint the program
+/// reaches, posed by its written axes, touches nothing.
+#[test]
+fn simple_curve_waypoints_as_written_touch_nothing() {
+    let (job, p) = simple_curve_plan();
+    let machine = Machine::default();
+    let queries: Vec<Query> = p
+        .program
+        .moves(&machine)
         .iter()
         .filter_map(|(_, mv)| {
             mv.waypoint.map(|g| Query {
@@ -158,23 +214,13 @@ fn simple_curve_plan_meets_the_paper() {
         })
         .collect();
     assert_eq!(queries.len(), p.waypoints.len());
-    let hits = cpu.evaluate(&queries).unwrap();
+    let hits = CpuBackend::new(&job.scene).evaluate(&queries).unwrap();
     assert_eq!(hits.iter().filter(|&&h| h).count(), 0);
 }
 
 #[test]
-fn default_job_plan_removes_collisions() {
-    let (job, scene) = default_scene();
-    let cpu = CpuBackend::new(&scene);
-    let p = plan(
-        &scene,
-        &job.toolpath,
-        &Machine::default(),
-        &cpu,
-        &PlanOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
+fn default_job_exercises_collisions_and_the_singular_region() {
+    let (_, _, p) = default_plan();
     assert!(
         p.input.residual_collisions > 500,
         "the default job must exercise collisions"
@@ -183,12 +229,27 @@ fn default_job_plan_removes_collisions() {
         p.input.singular_waypoints > 0,
         "the default job must pass the singular region"
     );
+}
+
+#[test]
+fn default_job_plan_removes_collisions() {
+    let (_, _, p) = default_plan();
     assert_eq!(p.plan.residual_collisions, 0);
     assert_eq!(p.plan.colliding_edges, 0);
     assert_eq!(p.plan.skipped_waypoints, 0);
+}
+
+#[test]
+fn default_job_plan_is_smoother_than_its_input() {
+    let (_, _, p) = default_plan();
     assert!(p.plan.speed_violation_pct < p.input.speed_violation_pct);
     assert!(p.plan.max_step_deg < p.input.max_step_deg);
-    // Each layer's waypoints (the report's charts) as a plain filter finds them.
+}
+
+/// Each layer's waypoints (the report's charts) as a plain filter finds them.
+#[test]
+fn layer_waypoints_are_what_a_plain_filter_finds() {
+    let (_, _, p) = default_plan();
     let layers = p.waypoints.iter().map(|w| w.layer).max().unwrap() + 1;
     assert!(layers > 1);
     for k in 0..layers + 1 {
@@ -199,18 +260,16 @@ fn default_job_plan_removes_collisions() {
     }
 }
 
+/// The output folder of `maamplan plan --backend cpu` (the embedded
+/// default job), run once.
+fn plan_command() -> &'static Path {
+    static OUT: OnceLock<PathBuf> = OnceLock::new();
+    OUT.get_or_init(|| common::plan_default_job("plan", &[]))
+}
+
 #[test]
-fn plan_command_writes_its_three_files() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(["plan", "--backend", "cpu", "-o"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+fn plan_command_reports_the_input_and_the_plan() {
+    let r = read_json(&plan_command().join("report.json"));
     for side in ["input", "plan"] {
         for k in [
             "waypoints",
@@ -227,16 +286,25 @@ fn plan_command_writes_its_three_files() {
     }
     assert!(r["seconds"].as_f64().unwrap() > 0.0);
     assert!(r["stages"]["graph"].is_number());
-    let csv = std::fs::read_to_string(out.join("plan.csv")).unwrap();
+    assert!(r["flipped_layers"].as_array().unwrap().is_empty());
+    assert!(r["skipped"].as_array().unwrap().is_empty());
+    assert_eq!(r["margin"], 0.05);
+}
+
+#[test]
+fn plan_command_writes_a_csv_row_per_waypoint() {
+    let r = read_json(&plan_command().join("report.json"));
+    let csv = std::fs::read_to_string(plan_command().join("plan.csv")).unwrap();
     assert_eq!(
         csv.lines().count(),
         1 + r["plan"]["waypoints"].as_u64().unwrap() as usize
     );
-    assert!(r["flipped_layers"].as_array().unwrap().is_empty());
-    assert!(r["skipped"].as_array().unwrap().is_empty());
-    assert_eq!(r["margin"], 0.05);
-    // The header names maamplan's version, the machine and the command.
-    let g = std::fs::read_to_string(out.join("toolpath.gcode")).unwrap();
+}
+
+/// The header names maamplan's version, the machine and the command.
+#[test]
+fn plan_command_gcode_header_names_version_machine_and_command() {
+    let g = std::fs::read_to_string(plan_command().join("toolpath.gcode")).unwrap();
     let head: Vec<&str> = g.lines().take_while(|l| l.starts_with(';')).collect();
     assert!(head[0].contains(concat!("maamplan ", env!("CARGO_PKG_VERSION"))));
     assert!(head
@@ -245,55 +313,108 @@ fn plan_command_writes_its_three_files() {
     assert!(head
         .iter()
         .any(|l| l.starts_with("; command: ") && l.contains(" plan ")));
+}
+
+/// Absolute positioning, an end, and the feeds from the machine file:
+/// print 25 mm/s, travel 87.5 mm/s.
+#[test]
+fn plan_command_gcode_uses_the_machines_feeds() {
+    let g = std::fs::read_to_string(plan_command().join("toolpath.gcode")).unwrap();
     assert!(g.contains("\nG90\n") && g.trim_end().ends_with("M30"));
-    // Feeds from the machine file: print 25 mm/s, travel 87.5 mm/s.
     assert!(g.contains(" F1500") && g.contains(" F5250"));
-    // Bad machine file: one line, exit 2, nothing written.
+}
+
+/// Bad machine file: one line, exit 2, nothing written.
+#[test]
+fn plan_command_refuses_a_bad_machine_file() {
+    let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("m.toml");
     std::fs::write(&bad, "configuration = \"IV\"\n").unwrap();
-    let out2 = dir.path().join("out2");
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_maamplan"))
+    let out = dir.path().join("out");
+    let o = common::maamplan()
         .args(["plan", "--backend", "cpu", "--machine"])
         .arg(&bad)
         .arg("-o")
-        .arg(&out2)
+        .arg(&out)
         .output()
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("m.toml:1:"));
-    assert!(!out2.exists());
+    assert!(common::stderr(&o).contains("m.toml:1:"));
+    assert!(!out.exists());
+}
+
+/// `plan --backend cpu -o <out>` with `MAAMPLAN_CACHE_DIR` set to `cache`
+/// (and the user's cache folders moved into `dir`): the program without
+/// its command line.
+fn plan_with_cache(dir: &Path, out: &str, cache: &Path) -> Vec<String> {
+    let out = dir.join(out);
+    let o = common::maamplan()
+        .args(["plan", "--backend", "cpu", "--no-plots", "-q", "-o"])
+        .arg(&out)
+        .env("MAAMPLAN_CACHE_DIR", cache)
+        .env("XDG_CACHE_HOME", dir.join("xdg-cache"))
+        .env("HOME", dir.join("home"))
+        .output()
+        .unwrap();
+    assert_success(&o);
+    program_lines(&out)
+}
+
+/// The G-code a `plan` run wrote into `out`, without its command line.
+fn program_lines(out: &Path) -> Vec<String> {
+    std::fs::read_to_string(out.join("toolpath.gcode"))
+        .unwrap()
+        .lines()
+        .filter(|l| !l.starts_with("; command:"))
+        .map(String::from)
+        .collect()
+}
+
+/// Which file an entry of the cache folder is (inode) and when it was
+/// last written.
+fn entry_identity(path: &Path) -> (u64, std::time::SystemTime) {
+    use std::os::unix::fs::MetadataExt;
+    let meta = std::fs::metadata(path).unwrap();
+    (meta.ino(), meta.modified().unwrap())
 }
 
 /// The head's data is cached between runs (`MAAMPLAN_CACHE_DIR`): the
-/// second run reads it, says so under `-v`, and writes the same program;
-/// an empty `MAAMPLAN_CACHE_DIR` turns the cache off.
+/// first run writes one entry, the second reads it (the entry is the same
+/// file, not rewritten: a rebuilt head is written to a new file renamed
+/// over it) and writes the same program.
 #[test]
 fn second_plan_reads_the_head_from_the_cache() {
     let dir = tempfile::tempdir().unwrap();
     let cache = dir.path().join("cache");
-    let run = |out: &str, cache: &std::path::Path| {
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_maamplan"))
-            .args(["plan", "--backend", "cpu", "-v", "-o"])
-            .arg(dir.path().join(out))
-            .env("MAAMPLAN_CACHE_DIR", cache)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-        let program = std::fs::read_to_string(dir.path().join(out).join("toolpath.gcode")).unwrap();
-        let program: Vec<String> = program
-            .lines()
-            .filter(|l| !l.starts_with("; command:"))
-            .map(String::from)
-            .collect();
-        (program, String::from_utf8_lossy(&o.stdout).into_owned())
-    };
-    let (first, _) = run("a", &cache);
-    let entries: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
+    let first = plan_with_cache(dir.path(), "a", &cache);
+    let entries: Vec<PathBuf> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     assert_eq!(entries.len(), 1, "one entry for the one head");
-    let (second, said) = run("b", &cache);
+    let written = entry_identity(&entries[0]);
+    let second = plan_with_cache(dir.path(), "b", &cache);
     assert_eq!(first, second);
-    assert!(said.contains("head data read from"), "{said}");
-    let (third, said) = run("c", std::path::Path::new(""));
-    assert_eq!(first, third);
-    assert!(said.contains("head data built (no cache folder)"), "{said}");
+    assert_eq!(std::fs::read_dir(&cache).unwrap().count(), 1);
+    assert_eq!(
+        entry_identity(&entries[0]),
+        written,
+        "the second run rewrote the entry instead of reading it"
+    );
+}
+
+/// An empty `MAAMPLAN_CACHE_DIR` turns the cache off: nothing is written
+/// to the user's cache folders, and the program is the one planned with
+/// the cache.
+#[test]
+fn an_empty_cache_dir_turns_the_cache_off() {
+    let dir = tempfile::tempdir().unwrap();
+    let off = plan_with_cache(dir.path(), "off", Path::new(""));
+    for folder in ["xdg-cache", "home"] {
+        assert!(
+            !dir.path().join(folder).exists(),
+            "{folder} written with the cache off"
+        );
+    }
+    assert_eq!(off, program_lines(plan_command()));
 }

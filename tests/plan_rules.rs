@@ -4,25 +4,18 @@
 
 mod common;
 
-use common::{cli, plate};
+use common::{assert_success, cli, plate, read_json, unit};
 
-use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
-use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::{mesh_obj, toolpath_files};
+use maamplan::io::gcode_read::GcodeMove;
 use maamplan::kinematics::Machine;
-use maamplan::plan::{plan, Plan, PlanOptions, Skip};
+use maamplan::plan::{Plan, PlanOptions, Skip};
 use maamplan::scene::{Scene, SceneConfig};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
-use std::path::Path;
-use std::process::Command;
-
-fn unit(v: [f64; 3]) -> [f32; 3] {
-    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [(v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32]
-}
+use std::path::{Path, PathBuf};
+use std::sync::OnceLock;
 
 /// A straight row of waypoints along x at height `z`, nozzle `dir`, on its
 /// own strip of surface.
@@ -48,9 +41,7 @@ fn platform() -> Mesh {
 }
 
 fn plan_with(tp: &Toolpath, m: &Machine) -> Plan {
-    let scene = Scene::build(tp, &head(), &platform(), &SceneConfig::default()).unwrap();
-    let cpu = CpuBackend::new(&scene);
-    plan(&scene, tp, m, &cpu, &PlanOptions::default(), &mut |_| {}).unwrap()
+    common::plan_scene(tp, &head(), &platform(), m).1
 }
 
 #[test]
@@ -149,16 +140,7 @@ fn machine_z_below_zero_is_warned() {
         &SceneConfig::default(),
     )
     .unwrap();
-    let m = Machine::default();
-    let p = plan(
-        &scene,
-        &tp,
-        &m,
-        &CpuBackend::new(&scene),
-        &PlanOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
+    let p = common::plan_cpu(&scene, &tp, &Machine::default(), &PlanOptions::default());
     assert!(
         p.warnings.iter().any(|w| w.contains("machine Z below 0")),
         "{:?}",
@@ -166,43 +148,88 @@ fn machine_z_below_zero_is_warned() {
     );
 }
 
+/// Three rows, the middle one a support layer (its name ends in S),
+/// planned and written once.
+struct SupportJob {
+    plan: Plan,
+    /// The G-code's lines.
+    lines: Vec<String>,
+    /// The G-code read back.
+    moves: Vec<GcodeMove>,
+    /// The index of the line changing to T2.
+    t2: usize,
+    /// The index of the line changing back to T1.
+    t1: usize,
+}
+
+fn support_job() -> &'static SupportJob {
+    static JOB: OnceLock<SupportJob> = OnceLock::new();
+    JOB.get_or_init(|| {
+        let up = [0.0, 0.0, 1.0];
+        let tp = Toolpath {
+            layers: vec![
+                row("0", 15, 0.5, up),
+                row("1S", 15, 1.0, up),
+                row("2", 15, 1.5, up),
+            ],
+        };
+        let m = Machine::default();
+        let plan = plan_with(&tp, &m);
+        let text = write_gcode(&m, &plan.program, &GcodeHeader::default());
+        let lines: Vec<String> = text.lines().map(String::from).collect();
+        let t2 = lines
+            .iter()
+            .position(|l| *l == "T2")
+            .expect("a change to T2");
+        let t1 = lines[t2..]
+            .iter()
+            .position(|l| *l == "T1")
+            .expect("back to T1")
+            + t2;
+        let moves = read_program(&text, &m).unwrap();
+        SupportJob {
+            plan,
+            lines,
+            moves,
+            t2,
+            t1,
+        }
+    })
+}
+
 #[test]
-fn support_layers_use_the_support_extruder() {
-    let up = [0.0, 0.0, 1.0];
-    let tp = Toolpath {
-        layers: vec![
-            row("0", 15, 0.5, up),
-            row("1S", 15, 1.0, up),
-            row("2", 15, 1.5, up),
-        ],
-    };
-    let m = Machine::default();
-    let p = plan_with(&tp, &m);
+fn support_layers_are_marked_support() {
+    let p = &support_job().plan;
     assert!(p.waypoints[15].support && !p.waypoints[0].support);
-    let text = write_gcode(&m, &p.program, &GcodeHeader::default());
-    // The switch to T2 and back to T1, each waiting for its temperature,
-    // happens at the safe height: between a lift and the travel.
-    let lines: Vec<&str> = text.lines().collect();
-    let t2 = lines
-        .iter()
-        .position(|l| *l == "T2")
-        .expect("a change to T2");
+}
+
+/// The switch to T2 and back to T1, each waiting for its temperature,
+/// happens at the safe height: between a lift and the travel.
+#[test]
+fn the_extruder_changes_at_the_safe_height() {
+    let SupportJob { lines, t2, .. } = support_job();
     assert!(lines[t2 + 1].starts_with("M109 S205 T2"));
     assert!(lines[t2 - 1].starts_with("G0 Z"), "{}", lines[t2 - 1]);
-    let t1 = lines[t2..]
+}
+
+/// The extruding moves between lines `from` and `to` (moves that go
+/// somewhere).
+fn extruding_between(from: usize, to: usize) -> impl Iterator<Item = &'static GcodeMove> {
+    support_job()
+        .moves
         .iter()
-        .position(|l| *l == "T1")
-        .expect("back to T1")
-        + t2;
-    // Extrusion per millimetre of bead: the support's is 0.9 of the main's
-    // (equal layer heights here); its feed is 2500 mm/min.
-    let moves = read_program(&text, &m).unwrap();
+        .filter(move |mv| mv.line > from && mv.line < to && mv.de > 0.0 && mv.from != mv.to)
+}
+
+/// Extrusion per millimetre of bead: the support's is 0.9 of the main's
+/// (equal layer heights here).
+#[test]
+fn support_extrudes_its_own_rate() {
+    let SupportJob { t2, t1, .. } = *support_job();
+    let m = Machine::default();
     let rate = |from: usize, to: usize| {
         let (mut e, mut l) = (0.0, 0.0);
-        for mv in moves
-            .iter()
-            .filter(|mv| mv.line > from && mv.line < to && mv.de > 0.0 && mv.from != mv.to)
-        {
+        for mv in extruding_between(from, to) {
             e += mv.de;
             let (a, b) = (m.tip(&axes_of(&mv.from)), m.tip(&axes_of(&mv.to)));
             l += (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2]);
@@ -215,80 +242,81 @@ fn support_layers_use_the_support_extruder() {
         (support / main - 0.9).abs() < 0.01,
         "support {support} vs main {main}"
     );
-    let support_feeds: Vec<f64> = moves
-        .iter()
-        .filter(|mv| mv.line > t2 && mv.line < t1 && mv.de > 0.0 && mv.from != mv.to)
-        .map(|mv| mv.f)
-        .collect();
+}
+
+/// The support's feed is 2500 mm/min.
+#[test]
+fn support_prints_at_its_own_feed() {
+    let SupportJob { t2, t1, .. } = *support_job();
+    let support_feeds: Vec<f64> = extruding_between(t2, t1).map(|mv| mv.f).collect();
     assert!(
         support_feeds.iter().all(|&f| f == 2500.0),
         "{support_feeds:?}"
     );
 }
 
-fn write_folder(dir: &Path, tp: &Toolpath) -> String {
-    let p = dir.join("tp");
-    write_folder_atomic(&p, &toolpath_files(tp)).unwrap();
-    std::fs::write(dir.join("head.obj"), mesh_obj(&head())).unwrap();
-    std::fs::write(dir.join("platform.obj"), mesh_obj(&platform())).unwrap();
-    p.display().to_string()
-}
-
-#[test]
-fn downward_layers_are_reversed_and_named_unless_kept() {
+/// Two rows, the second's nozzles pointing down, written as a job into
+/// a fresh folder and planned by the CLI (with `extra` options): the
+/// report it wrote.
+fn plan_downward_layers(extra: &[&str]) -> serde_json::Value {
     let up = [0.0, 0.0, 1.0];
     let tp = Toolpath {
         layers: vec![row("0", 10, 0.6, up), row("1", 10, 1.2, [0.0, 0.0, -1.0])],
     };
     let dir = tempfile::tempdir().unwrap();
-    let tpath = write_folder(dir.path(), &tp);
-    let head = dir.path().join("head.obj").display().to_string();
-    let plat = dir.path().join("platform.obj").display().to_string();
-    let base = [
-        "plan",
-        &tpath,
-        "--head",
-        &head,
-        "--platform",
-        &plat,
-        "--backend",
-        "cpu",
-        "--no-plots",
-    ];
+    let tpath = common::write_job(dir.path(), &tp, &head(), &platform());
     let out = dir.path().join("out");
-    let o = cli(&[&base[..], &["-o", out.to_str().unwrap()]].concat());
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(
-        stdout.contains("reversed the nozzle directions of 1 layer(s)"),
-        "{stdout}"
-    );
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let o = common::maamplan()
+        .arg("plan")
+        .arg(&tpath)
+        .arg("--head")
+        .arg(dir.path().join("head.obj"))
+        .arg("--platform")
+        .arg(dir.path().join("platform.obj"))
+        .args(["--backend", "cpu", "--no-plots", "-q"])
+        .args(extra)
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert_success(&o);
+    read_json(&out.join("report.json"))
+}
+
+#[test]
+fn downward_layers_are_reversed_and_named() {
+    let r = plan_downward_layers(&[]);
     assert_eq!(r["flipped_layers"], serde_json::json!(["1"]));
     assert_eq!(r["plan"]["skipped_waypoints"], 0);
-    // Kept as stored, the downward nozzles point into the layer below.
-    let kept = dir.path().join("kept");
-    let o = cli(&[&base[..], &["--keep-normals", "-o", kept.to_str().unwrap()]].concat());
-    assert!(o.status.success());
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(kept.join("report.json")).unwrap()).unwrap();
+}
+
+/// Kept as stored, the downward nozzles point into the layer below.
+#[test]
+fn kept_normals_point_downward_layers_into_the_layer_below() {
+    let r = plan_downward_layers(&["--keep-normals"]);
     assert_eq!(r["flipped_layers"], serde_json::json!([]));
     assert!(r["input"]["residual_collisions"].as_u64().unwrap() >= 10);
 }
 
+/// A toolpath that does not exist: the -o problem is found first.
 #[test]
-fn the_output_folder_is_checked_before_any_work() {
+fn an_output_folder_that_is_a_file_is_refused_before_any_work() {
     let dir = tempfile::tempdir().unwrap();
     let file = dir.path().join("taken");
     std::fs::write(&file, "x").unwrap();
-    // A toolpath that does not exist: the -o problem is found first.
     let o = cli(&["plan", "/no/such/toolpath", "-o", file.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = common::stderr(&o);
     assert!(err.contains("taken") && err.contains("is a file"), "{err}");
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "x");
-    // Inside a file: cannot be created.
+}
+
+/// Inside a file: cannot be created, found before the missing toolpath.
+#[test]
+fn an_output_folder_inside_a_file_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("taken");
+    std::fs::write(&file, "x").unwrap();
     let o = cli(&[
         "plan",
         "/no/such/toolpath",
@@ -296,10 +324,14 @@ fn the_output_folder_is_checked_before_any_work() {
         file.join("sub").to_str().unwrap(),
     ]);
     assert_eq!(o.status.code(), Some(2));
-    // No -o at all: a usage error naming it.
+}
+
+/// No -o at all: a usage error naming it.
+#[test]
+fn plan_without_an_output_folder_is_a_usage_error() {
     let o = cli(&["plan"]);
     assert_eq!(o.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&o.stderr).contains("--out"));
+    assert!(common::stderr(&o).contains("--out"));
 }
 
 /// Rows of a plan.csv as maps.
@@ -317,31 +349,33 @@ fn csv_rows(path: &Path) -> Vec<std::collections::HashMap<String, String>> {
         .collect()
 }
 
-#[test]
-fn check_and_plan_pose_the_head_alike_and_count_the_same_flags() {
+/// The output folder of `maamplan plan --backend cpu --no-plots` (the
+/// embedded default job), run once.
+fn default_plan_folder() -> &'static Path {
+    static OUT: OnceLock<PathBuf> = OnceLock::new();
+    OUT.get_or_init(|| common::plan_default_job("plan", &["--no-plots", "-q"]))
+}
+
+/// `maamplan check --backend cpu` with `args` (the embedded default job
+/// unless they name a toolpath): the JSON it wrote.
+fn check_json(args: &[&str]) -> serde_json::Value {
     let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = cli(&[
-        "plan",
-        "--backend",
-        "cpu",
-        "--no-plots",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let json = dir.path().join("check.json");
-    let o = cli(&[
-        "check",
-        "--backend",
-        "cpu",
-        "--json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let rows = csv_rows(&out.join("plan.csv"));
+    let o = common::maamplan()
+        .args(["check", "--backend", "cpu"])
+        .args(args)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert_success(&o);
+    read_json(&json)
+}
+
+#[test]
+fn check_and_plan_pose_the_head_alike() {
+    let c = check_json(&[]);
+    let rows = csv_rows(&default_plan_folder().join("plan.csv"));
     let was: Vec<u64> = rows
         .iter()
         .enumerate()
@@ -356,36 +390,33 @@ fn check_and_plan_pose_the_head_alike_and_count_the_same_flags() {
         .collect();
     assert!(!was.is_empty());
     assert_eq!(was, checked, "check and plan disagree on the input's poses");
-    // plan.csv's flags are what report.json counts.
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+}
+
+/// plan.csv's flags are what report.json counts.
+#[test]
+fn plan_csv_flags_are_what_report_json_counts() {
+    let rows = csv_rows(&default_plan_folder().join("plan.csv"));
+    let r = read_json(&default_plan_folder().join("report.json"));
     let count = |k: &str| rows.iter().filter(|r| r[k] == "1").count() as u64;
-    assert_eq!(
-        count("singular"),
-        r["plan"]["singular_waypoints"].as_u64().unwrap()
-    );
-    assert_eq!(
-        count("was_singular"),
-        r["input"]["singular_waypoints"].as_u64().unwrap()
-    );
-    assert_eq!(
-        count("was_colliding"),
-        r["input"]["residual_collisions"].as_u64().unwrap()
-    );
+    for (flag, side, figure) in [
+        ("singular", "plan", "singular_waypoints"),
+        ("was_singular", "input", "singular_waypoints"),
+        ("was_colliding", "input", "residual_collisions"),
+    ] {
+        assert_eq!(
+            count(flag),
+            r[side][figure].as_u64().unwrap(),
+            "{flag} vs {side}.{figure}"
+        );
+    }
     assert!(count("was_singular") > 0);
-    // check --plan re-checks the written plan: poses and printing moves.
-    let o = cli(&[
-        "check",
-        "--backend",
-        "cpu",
-        "--plan",
-        out.join("plan.csv").to_str().unwrap(),
-        "--json",
-        json.to_str().unwrap(),
-    ]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let c: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+}
+
+/// check --plan re-checks the written plan: poses and printing moves.
+#[test]
+fn check_rechecks_the_written_plan() {
+    let csv = default_plan_folder().join("plan.csv");
+    let c = check_json(&["--plan", csv.to_str().unwrap()]);
     assert_eq!(c["colliding"], 0);
     assert_eq!(c["colliding_moves"], 0);
     assert!(c["moves"].as_u64().unwrap() > 1000);
@@ -399,11 +430,10 @@ fn verbose_stage_lines_arrive_as_stages_end_when_piped() {
     use std::io::{BufRead, BufReader};
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    // The embedded default job: seconds of planning after its load.
-    let mut child = Command::new(env!("CARGO_BIN_EXE_maamplan"))
+    // The embedded default job: its planning goes on well after its load.
+    let mut child = common::maamplan()
         .args(["plan", "--backend", "cpu", "--no-plots", "-v", "-o"])
         .arg(&out)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
         .stdout(std::process::Stdio::piped())
         .stderr(std::process::Stdio::null())
         .spawn()

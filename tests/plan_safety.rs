@@ -4,24 +4,20 @@
 //! one, a move that collides only between its endpoints is caught, and the
 //! machine's ranges are planned around.
 
+mod common;
+
+use common::{assert_success, plan_scene, read_json, unit, write_job};
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
-use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::{mesh_obj, toolpath_files};
 use maamplan::kinematics::{orientation, Axes, Machine};
-use maamplan::plan::{head_reach, plan, Plan, PlanOptions, Skip};
+use maamplan::plan::{head_reach, Plan, Skip};
 use maamplan::prove::{displacement_bound, MoveSpec, Prover};
 use maamplan::scene::{Scene, SceneConfig};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
 use std::path::Path;
-use std::process::Command;
-
-fn unit(v: [f64; 3]) -> [f32; 3] {
-    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [(v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32]
-}
+use std::sync::OnceLock;
 
 /// A flat strip `y ∈ [−w, w]` under `x ∈ [x0, x1]` at height `z`.
 fn strip(x0: f32, x1: f32, w: f32, z: f32) -> Mesh {
@@ -53,13 +49,6 @@ fn line(name: &str, xs: &[f32], y: f32, z: f32, dir: [f32; 3], surface: Mesh) ->
     }
 }
 
-fn plan_of(tp: &Toolpath, head: &Mesh, platform: &Mesh, m: &Machine) -> (Scene, Plan) {
-    let scene = Scene::build(tp, head, platform, &SceneConfig::default()).unwrap();
-    let cpu = CpuBackend::new(&scene);
-    let p = plan(&scene, tp, m, &cpu, &PlanOptions::default(), &mut |_| {}).unwrap();
-    (scene, p)
-}
-
 /// How near any G-code line of `p`'s written program puts the tip to `at`.
 fn nearest_written_tip(m: &Machine, p: &Plan, at: [f64; 3]) -> f64 {
     let text = write_gcode(m, &p.program, &GcodeHeader::default());
@@ -72,6 +61,22 @@ fn nearest_written_tip(m: &Machine, p: &Plan, at: [f64; 3]) -> f64 {
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     (a[0] - b[0]).hypot(a[1] - b[1]).hypot(a[2] - b[2])
+}
+
+/// Waypoint `g` of `p` is skipped (no safe orientation) and is the only
+/// unsafe skip; its neighbours are printed, the program keeps its margin,
+/// and no line of the written program puts the tip there.
+fn assert_skipped_alone(m: &Machine, p: &Plan, g: usize) {
+    assert_eq!(p.waypoints[g].skipped, Some(Skip::Residual));
+    assert_eq!(p.plan.skipped_waypoints - p.plan.isolated_waypoints, 1);
+    assert!(p.waypoints[g - 1].skipped.is_none() && p.waypoints[g + 1].skipped.is_none());
+    assert_eq!(p.plan.residual_collisions, 0);
+    assert_eq!(p.plan.colliding_edges, 0);
+    let nearest = nearest_written_tip(m, p, p.waypoints[g].p);
+    assert!(
+        nearest > 0.5,
+        "a G-code line puts the tip {nearest} mm from it"
+    );
 }
 
 /// Layer 1 runs through a small closed cube printed in layer 0: its middle
@@ -110,62 +115,48 @@ fn caged() -> (Toolpath, Mesh, Mesh, usize) {
 fn a_waypoint_every_orientation_of_which_collides_is_never_visited() {
     let (tp, head, platform, g) = caged();
     let m = Machine::default();
-    let (_, p) = plan_of(&tp, &head, &platform, &m);
-    assert_eq!(p.waypoints[g].skipped, Some(Skip::Residual));
-    assert_eq!(p.plan.skipped_waypoints - p.plan.isolated_waypoints, 1);
+    let (_, p) = plan_scene(&tp, &head, &platform, &m);
+    assert_skipped_alone(&m, &p, g);
     assert!(p
         .warnings
         .iter()
         .any(|w| w.contains(&format!("waypoint {g} "))));
-    // Its neighbours are printed, the program keeps its margin.
-    assert!(p.waypoints[g - 1].skipped.is_none() && p.waypoints[g + 1].skipped.is_none());
-    assert_eq!(p.plan.residual_collisions, 0);
-    assert_eq!(p.plan.colliding_edges, 0);
-    // No line of the written program puts the tip there.
-    let nearest = nearest_written_tip(&m, &p, p.waypoints[g].p);
-    assert!(
-        nearest > 0.5,
-        "a G-code line puts the tip {nearest} mm from it"
-    );
 }
 
-fn write_job(dir: &Path, tp: &Toolpath, head: &Mesh, platform: &Mesh) {
-    write_folder_atomic(&dir.join("tp"), &toolpath_files(tp)).unwrap();
-    std::fs::write(dir.join("head.obj"), mesh_obj(head)).unwrap();
-    std::fs::write(dir.join("platform.obj"), mesh_obj(platform)).unwrap();
-}
-
+/// `maamplan plan` on the job `write_job` wrote into `dir`, with `extra`
+/// options.
 fn run(dir: &Path, extra: &[&str]) -> std::process::Output {
-    let mut args: Vec<String> = vec![
-        "plan".into(),
-        dir.join("tp").display().to_string(),
-        "--head".into(),
-        dir.join("head.obj").display().to_string(),
-        "--platform".into(),
-        dir.join("platform.obj").display().to_string(),
-        "--backend".into(),
-        "cpu".into(),
-        "--no-plots".into(),
-    ];
-    args.extend(extra.iter().map(|s| s.to_string()));
-    Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(&args)
+    common::maamplan()
+        .arg("plan")
+        .arg(dir.join("tp"))
+        .arg("--head")
+        .arg(dir.join("head.obj"))
+        .arg("--platform")
+        .arg(dir.join("platform.obj"))
+        .args(["--backend", "cpu", "--no-plots"])
+        .args(extra)
         .output()
         .unwrap()
 }
 
-#[test]
-fn skipped_waypoints_are_reported_and_strict_refuses() {
+/// The caged job written into a fresh folder: the folder and the caged
+/// waypoint's index.
+fn caged_job() -> (tempfile::TempDir, usize) {
     let (tp, head, platform, g) = caged();
     let dir = tempfile::tempdir().unwrap();
     write_job(dir.path(), &tp, &head, &platform);
+    (dir, g)
+}
+
+#[test]
+fn skipped_waypoints_are_reported() {
+    let (dir, g) = caged_job();
     let out = dir.path().join("out");
     let o = run(dir.path(), &["-o", out.to_str().unwrap()]);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let err = String::from_utf8_lossy(&o.stderr);
+    assert_success(&o);
+    let err = common::stderr(&o);
     assert!(err.contains(&format!("warning: waypoint {g} ")), "{err}");
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let r = read_json(&out.join("report.json"));
     let listed: Vec<(u64, String)> = r["skipped"]
         .as_array()
         .unwrap()
@@ -184,14 +175,19 @@ fn skipped_waypoints_are_reported_and_strict_refuses() {
     let csv = std::fs::read_to_string(out.join("plan.csv")).unwrap();
     let row = csv.lines().nth(1 + g).unwrap();
     assert!(row.ends_with(",residual"), "{row}");
-    // --strict: exit 3, one line, nothing written.
-    let out2 = dir.path().join("strict");
-    let o = run(dir.path(), &["--strict", "-o", out2.to_str().unwrap()]);
+}
+
+/// --strict: exit 3, one line, nothing written.
+#[test]
+fn strict_refuses_skipped_waypoints() {
+    let (dir, _) = caged_job();
+    let out = dir.path().join("strict");
+    let o = run(dir.path(), &["--strict", "-o", out.to_str().unwrap()]);
     assert_eq!(o.status.code(), Some(3));
-    let err = String::from_utf8_lossy(&o.stderr);
+    let err = common::stderr(&o);
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(err.contains("--strict"), "{err}");
-    assert!(!out2.exists());
+    assert!(!out.exists());
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .filter_map(|e| e.ok())
@@ -277,8 +273,7 @@ fn a_narrow_free_cone_far_from_the_input_is_found() {
     };
     let pencil = cone_head(0.3, 0.3, 16.0, 16);
     let platform = box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]);
-    let m = Machine::default();
-    let (_, p) = plan_of(&tp, &pencil, &platform, &m);
+    let (_, p) = plan_scene(&tp, &pencil, &platform, &Machine::default());
     for g in [3, 4] {
         let w = &p.waypoints[g];
         assert_eq!(w.skipped, None, "waypoint {g} skipped");
@@ -339,16 +334,50 @@ fn post_scene() -> (Toolpath, Mesh, Mesh) {
     )
 }
 
-#[test]
-fn a_move_that_collides_only_between_its_endpoints_is_caught_and_counted() {
-    let (tp, head, platform) = post_scene();
-    let m = Machine::default();
-    let scene = Scene::build(&tp, &head, &platform, &SceneConfig::default()).unwrap();
-    let cpu = CpuBackend::new(&scene);
-    let prover = Prover::new(&m, &cpu, head_reach(&scene), m.margin, 0.3);
-    // The input's own move: B from 10° to −10° (direct IK), C fixed.
+/// [`post_scene`] with its scene and plan, built once.
+struct PostJob {
+    toolpath: Toolpath,
+    head: Mesh,
+    platform: Mesh,
+    scene: Scene,
+    plan: Plan,
+}
+
+fn post_job() -> &'static PostJob {
+    static JOB: OnceLock<PostJob> = OnceLock::new();
+    JOB.get_or_init(|| {
+        let (toolpath, head, platform) = post_scene();
+        let (scene, plan) = plan_scene(&toolpath, &head, &platform, &Machine::default());
+        PostJob {
+            toolpath,
+            head,
+            platform,
+            scene,
+            plan,
+        }
+    })
+}
+
+/// A prover over the post scene (the machine's margin, 0.3 mm steps).
+fn post_prover(m: &Machine) -> Prover<'_> {
+    static CPU: OnceLock<CpuBackend<'static>> = OnceLock::new();
+    let job = post_job();
+    let cpu = CPU.get_or_init(|| CpuBackend::new(&job.scene));
+    Prover::new(m, cpu, head_reach(&job.scene), m.margin, 0.3)
+}
+
+/// The post scene's own move: B from 10° to −10° (direct IK), C fixed.
+fn post_move(m: &Machine) -> (Axes, Axes) {
     let a = m.axes_at([-1.5, 0.0, 0.5], (10f64.to_radians(), 0.0));
     let b = m.axes_at([1.5, 0.0, 0.5], (-10f64.to_radians(), 0.0));
+    (a, b)
+}
+
+#[test]
+fn the_posts_move_is_free_at_its_ends_and_collides_between() {
+    let m = Machine::default();
+    let prover = post_prover(&m);
+    let (a, b) = post_move(&m);
     assert!((orientation(m.rotary, a.tilt, a.c)[0] + 10f64.to_radians().sin()).abs() < 1e-6);
     let poses = prover.poses(&[(a, 3), (b, 4)]).unwrap();
     assert_eq!(poses, vec![false, false], "both endpoints are free");
@@ -360,17 +389,26 @@ fn a_move_that_collides_only_between_its_endpoints_is_caught_and_counted() {
         }])
         .unwrap();
     assert_eq!(hits, vec![true], "the swing through vertical hits the post");
+}
 
-    let p = plan(&scene, &tp, &m, &cpu, &PlanOptions::default(), &mut |_| {}).unwrap();
-    // Counted on the input, avoided by the plan (a break: lift, turn at
-    // height, approach).
+/// Counted on the input, avoided by the plan (a break: lift, turn at
+/// height, approach).
+#[test]
+fn a_move_that_collides_only_between_its_endpoints_is_counted_and_avoided() {
+    let p = &post_job().plan;
     assert_eq!(p.input.colliding_edges, 1);
     assert_eq!(p.plan.colliding_edges, 0);
     assert_eq!(p.plan.breaks, 1);
     assert_eq!(p.plan.residual_collisions, 0);
-    // Re-checked independently: no move of the written program comes
-    // within the margin at any of 400 poses along it.
-    let moves = p.program.moves(&m);
+}
+
+/// Re-checked independently: no move of the written program comes within
+/// the margin at any of 400 poses along it.
+#[test]
+fn the_post_scenes_program_keeps_the_margin_all_along_its_moves() {
+    let m = Machine::default();
+    let prover = post_prover(&m);
+    let moves = post_job().plan.program.moves(&m);
     let specs: Vec<MoveSpec> = moves
         .iter()
         .filter(|(f, mv)| *f != mv.to)
@@ -382,9 +420,16 @@ fn a_move_that_collides_only_between_its_endpoints_is_caught_and_counted() {
         .collect();
     let dense = prover.sampled_moves(&specs, 0.01, 400).unwrap();
     assert!(dense.iter().all(|&h| !h));
-    // check --plan counts the move when a plan makes it.
+}
+
+/// check --plan counts the move when a plan makes it.
+#[test]
+fn check_counts_a_plans_move_that_collides_between_its_endpoints() {
+    let job = post_job();
+    let m = Machine::default();
+    let (a, b) = post_move(&m);
     let dir = tempfile::tempdir().unwrap();
-    write_job(dir.path(), &tp, &head, &platform);
+    write_job(dir.path(), &job.toolpath, &job.head, &job.platform);
     let csv = dir.path().join("plan.csv");
     let row = |x: &Axes, travel: u8| {
         format!(
@@ -409,20 +454,21 @@ fn a_move_that_collides_only_between_its_endpoints_is_caught_and_counted() {
     )
     .unwrap();
     let json = dir.path().join("check.json");
-    let o = Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(["check", dir.path().join("tp").to_str().unwrap()])
-        .args(["--head", dir.path().join("head.obj").to_str().unwrap()])
-        .args([
-            "--platform",
-            dir.path().join("platform.obj").to_str().unwrap(),
-        ])
-        .args(["--backend", "cpu", "--plan", csv.to_str().unwrap()])
-        .args(["--json", json.to_str().unwrap()])
+    let o = common::maamplan()
+        .arg("check")
+        .arg(dir.path().join("tp"))
+        .arg("--head")
+        .arg(dir.path().join("head.obj"))
+        .arg("--platform")
+        .arg(dir.path().join("platform.obj"))
+        .args(["--backend", "cpu", "--plan"])
+        .arg(&csv)
+        .arg("--json")
+        .arg(&json)
         .output()
         .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let r: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_success(&o);
+    let r = read_json(&json);
     assert_eq!(r["colliding"], 0, "{r}");
     assert_eq!(r["colliding_moves"], 1, "{r}");
     assert_eq!(r["colliding_moves_into"][0], 3, "{r}");
@@ -533,24 +579,15 @@ fn a_caged_waypoint_inside_a_run_of_colliding_ones_is_skipped_and_its_section_sp
     // its section split in two, both printed.
     let (tp, head, platform, g) = tipped_run(13, true);
     let m = Machine::default();
-    let (_, p) = plan_of(&tp, &head, &platform, &m);
+    let (_, p) = plan_scene(&tp, &head, &platform, &m);
     assert!(
         p.input.residual_collisions >= 13,
         "the run collides as given"
     );
-    assert_eq!(p.waypoints[g].skipped, Some(Skip::Residual));
-    assert_eq!(p.plan.skipped_waypoints - p.plan.isolated_waypoints, 1);
-    assert!(p.waypoints[g - 1].skipped.is_none() && p.waypoints[g + 1].skipped.is_none());
+    assert_skipped_alone(&m, &p, g);
     assert!(
         p.waypoints[g + 1].section_start,
         "printing resumes after it as a new section"
-    );
-    assert_eq!(p.plan.residual_collisions, 0);
-    assert_eq!(p.plan.colliding_edges, 0);
-    let nearest = nearest_written_tip(&m, &p, p.waypoints[g].p);
-    assert!(
-        nearest > 0.5,
-        "a G-code line puts the tip {nearest} mm from it"
     );
 }
 
@@ -563,8 +600,7 @@ fn colliding_waypoints_ask_only_what_their_path_takes() {
     // columns and the graph together ask a few queries a waypoint (6.7).
     let n = 400;
     let (tp, head, platform, _) = tipped_run(n, false);
-    let m = Machine::default();
-    let (_, p) = plan_of(&tp, &head, &platform, &m);
+    let (_, p) = plan_scene(&tp, &head, &platform, &Machine::default());
     assert!(
         p.input.residual_collisions >= n,
         "the run collides as given"

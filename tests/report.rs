@@ -6,15 +6,15 @@
 
 mod common;
 
-use maamplan::collide::cpu::CpuBackend;
+use common::{default_plan, simple_curve_plan};
 use maamplan::kinematics::Machine;
 use maamplan::plan::smooth::Smoothing;
-use maamplan::plan::{plan, Plan, PlanOptions};
-use maamplan::report::plots::figures;
+use maamplan::plan::{Plan, PlanOptions};
+use maamplan::report::plots::{figures, Figure};
 use maamplan::report::scene_glb::scene_glb;
-use maamplan::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::process::Command;
+use std::sync::OnceLock;
 
 fn require_tools() -> bool {
     std::env::var("MAAMPLAN_REQUIRE_TOOLS").is_ok_and(|v| v == "1")
@@ -24,51 +24,26 @@ fn manifest() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-fn default_plan(opts: &PlanOptions) -> (Scene, Plan) {
-    let (job, scene) = common::default_scene();
-    let cpu = CpuBackend::new(&scene);
-    let p = plan(
-        &scene,
-        &job.toolpath,
-        &Machine::default(),
-        &cpu,
-        opts,
-        &mut |_| {},
-    )
-    .unwrap();
-    (scene, p)
+/// The figures of the default job's plan, drawn once.
+fn default_figures() -> &'static [Figure] {
+    static FIGURES: OnceLock<Vec<Figure>> = OnceLock::new();
+    FIGURES.get_or_init(|| figures(&Machine::default(), &default_plan().2).unwrap())
 }
 
-fn simple_curve_plan() -> &'static (Scene, Plan) {
-    static PLAN: std::sync::OnceLock<(Scene, Plan)> = std::sync::OnceLock::new();
-    PLAN.get_or_init(simple_curve_plan_uncached)
-}
-
-fn simple_curve_plan_uncached() -> (Scene, Plan) {
-    let (tp, scene) = common::simple_curve();
-    let cpu = CpuBackend::new(&scene);
-    let p = plan(
-        &scene,
-        &tp,
-        &Machine::default(),
-        &cpu,
-        &PlanOptions::default(),
-        &mut |_| {},
-    )
-    .unwrap();
-    (scene, p)
+/// The default job planned without smoothing: a different plan of the
+/// same toolpath.
+fn unsmoothed_default_plan() -> Plan {
+    let (job, scene, _) = default_plan();
+    let opts = PlanOptions {
+        smoothing: Smoothing::None,
+        ..PlanOptions::default()
+    };
+    common::plan_cpu(scene, &job.toolpath, &Machine::default(), &opts)
 }
 
 #[test]
-fn plots_exist_and_follow_the_plan() {
-    let m = Machine::default();
-    let (_, a) = default_plan(&PlanOptions::default());
-    let (_, b) = default_plan(&PlanOptions {
-        smoothing: Smoothing::None,
-        ..PlanOptions::default()
-    });
-    let fa = figures(&m, &a).unwrap();
-    let fb = figures(&m, &b).unwrap();
+fn plots_name_the_speed_the_collisions_and_each_layer() {
+    let fa = default_figures();
     let names: Vec<&str> = fa.iter().map(|f| f.name.as_str()).collect();
     assert!(
         names.contains(&"tip_speed")
@@ -76,26 +51,47 @@ fn plots_exist_and_follow_the_plan() {
             && names.contains(&"bc_layer_0")
     );
     assert_eq!(fa.len(), 4 + 2, "one B/C plot per layer plus two");
-    // Deterministic: the same plan draws the same pictures.
-    let again = figures(&m, &a).unwrap();
-    assert!(fa.iter().zip(&again).all(|(x, y)| x.svg == y.svg));
-    // A different plan draws a different B/C curve and speed histogram.
+}
+
+/// Deterministic: the same plan draws the same pictures.
+#[test]
+fn plots_of_the_same_plan_are_the_same() {
+    let again = figures(&Machine::default(), &default_plan().2).unwrap();
+    assert!(default_figures()
+        .iter()
+        .zip(&again)
+        .all(|(x, y)| x.svg == y.svg));
+}
+
+/// A different plan draws a different B/C curve and speed histogram.
+#[test]
+fn plots_follow_the_plan() {
+    let fa = default_figures();
+    let fb = figures(&Machine::default(), &unsmoothed_default_plan()).unwrap();
     let differs = |name: &str| {
         let x = fa.iter().find(|f| f.name == name).unwrap();
         let y = fb.iter().find(|f| f.name == name).unwrap();
         x.svg != y.svg
     };
     assert!(differs("bc_layer_1") && differs("tip_speed"));
-    for f in &fa {
+}
+
+#[test]
+fn no_plot_is_nearly_empty() {
+    for f in default_figures() {
         assert!(
             f.svg.contains("<svg") && f.svg.len() > 2000,
             "{} is nearly empty",
             f.name
         );
     }
-    // simple_curve: one B/C plot per layer, all non-trivial.
+}
+
+/// simple_curve: one B/C plot per layer, plus two.
+#[test]
+fn simple_curve_draws_a_plot_per_layer() {
     let (_, sc) = simple_curve_plan();
-    let fs = figures(&m, sc).unwrap();
+    let fs = figures(&Machine::default(), sc).unwrap();
     assert_eq!(fs.len(), 20 + 2);
 }
 
@@ -118,17 +114,27 @@ fn validate(glb: &Path) -> Option<serde_json::Value> {
     )
 }
 
-#[test]
-fn scenes_pass_the_khronos_gltf_validator() {
+/// Write `name`'s scene file and run the Khronos validator on it: no
+/// errors.
+fn assert_scene_validates(name: &str, scene: &maamplan::scene::Scene, p: &Plan) {
     let dir = tempfile::tempdir().unwrap();
-    let default = default_plan(&PlanOptions::default());
-    for (name, (scene, p)) in [("default", &default), ("simple_curve", simple_curve_plan())] {
-        let path = dir.path().join(format!("{name}.glb"));
-        std::fs::write(&path, scene_glb(scene, p, &Machine::default())).unwrap();
-        if let Some(r) = validate(&path) {
-            assert_eq!(r["errors"], 0, "{name}: {r}");
-        }
+    let path = dir.path().join(format!("{name}.glb"));
+    std::fs::write(&path, scene_glb(scene, p, &Machine::default())).unwrap();
+    if let Some(r) = validate(&path) {
+        assert_eq!(r["errors"], 0, "{name}: {r}");
     }
+}
+
+#[test]
+fn default_scene_passes_the_khronos_gltf_validator() {
+    let (_, scene, p) = default_plan();
+    assert_scene_validates("default", scene, p);
+}
+
+#[test]
+fn simple_curve_scene_passes_the_khronos_gltf_validator() {
+    let (job, p) = simple_curve_plan();
+    assert_scene_validates("simple_curve", &job.scene, p);
 }
 
 fn chromium() -> Option<&'static str> {
@@ -142,16 +148,16 @@ fn chromium() -> Option<&'static str> {
         })
 }
 
+/// The output folder of `maamplan plan --backend cpu -q` (the embedded
+/// default job, with its report), run once.
+fn planned_report() -> &'static Path {
+    static OUT: OnceLock<PathBuf> = OnceLock::new();
+    OUT.get_or_init(|| common::plan_default_job("report", &["-q"]))
+}
+
 #[test]
-fn report_renders_in_headless_chromium() {
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = Command::new(env!("CARGO_BIN_EXE_maamplan"))
-        .args(["plan", "--backend", "cpu", "-q", "-o"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+fn plan_writes_the_report_the_scene_and_the_plots() {
+    let out = planned_report();
     for f in [
         "report.html",
         "scene.glb",
@@ -162,11 +168,20 @@ fn report_renders_in_headless_chromium() {
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
-    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+}
+
+#[test]
+fn the_report_is_self_contained() {
+    let html = std::fs::read_to_string(planned_report().join("report.html")).unwrap();
     for load in ["src=\"http", "href=\"http", "url(http", "@import"] {
         assert!(!html.contains(load), "self-contained: it loads {load}…");
     }
     assert!(html.contains("<svg") && html.contains("id=\"summary\""));
+}
+
+#[test]
+fn report_renders_in_headless_chromium() {
+    let out = planned_report();
     let Some(browser) = chromium() else {
         assert!(
             !require_tools(),
@@ -175,6 +190,7 @@ fn report_renders_in_headless_chromium() {
         eprintln!("skipping the screenshot: no chromium");
         return;
     };
+    let dir = tempfile::tempdir().unwrap();
     let shot = dir.path().join("shot.png");
     let s = Command::new(browser)
         .args([
@@ -212,64 +228,26 @@ fn report_renders_in_headless_chromium() {
     assert!(blue > 500, "no plot colour on the page ({blue} px)");
 }
 
-#[test]
-fn failures_leave_nothing_behind() {
+/// Run `plan` with `args` in a fresh folder (`{dir}` in an argument
+/// stands for the folder, `{out}` for the output folder `{dir}/out`),
+/// after `prepare` wrote its inputs there: it must fail with exit 2 and
+/// leave nothing behind, neither the output folder nor a scratch folder.
+/// Returns what it said on stderr.
+fn plan_fails_cleanly(args: &[&str], prepare: impl FnOnce(&Path)) -> String {
     let dir = tempfile::tempdir().unwrap();
-    let run = |args: &[&str]| {
-        let o = Command::new(env!("CARGO_BIN_EXE_maamplan"))
-            .args(args)
-            .output()
-            .unwrap();
-        (
-            o.status.code(),
-            String::from_utf8_lossy(&o.stderr).into_owned(),
-        )
-    };
+    prepare(dir.path());
     let out = dir.path().join("out");
-    let o = out.to_str().unwrap();
-    // Input error: a malformed waypoint file.
-    let tp = dir.path().join("bad.txt");
-    std::fs::write(&tp, "1 2 3 0 0\n").unwrap();
-    let (code, err) = run(&["plan", tp.to_str().unwrap(), "--backend", "cpu", "-o", o]);
-    assert_eq!(code, Some(2));
-    assert!(
-        err.contains("bad.txt:1:") && err.lines().count() == 1,
-        "{err}"
-    );
-    // Machine-file error.
-    let m = dir.path().join("m.toml");
-    std::fs::write(&m, "configuration = 3\n").unwrap();
-    let (code, err) = run(&[
-        "plan",
-        "--backend",
-        "cpu",
-        "--machine",
-        m.to_str().unwrap(),
-        "-o",
-        o,
-    ]);
-    assert_eq!(code, Some(2));
-    assert!(err.contains("m.toml:1:"), "{err}");
-    // Usage errors: no output folder; a bad option value.
-    let (code, err) = run(&["plan", "--backend", "cpu"]);
-    assert_eq!(code, Some(2));
-    assert!(err.contains("--out"), "{err}");
-    let (code, _) = run(&["plan", "--backend", "cpu", "--alpha", "90", "-o", o]);
-    assert_eq!(code, Some(2));
-    // Unwritable output: a file where the folder should be.
-    let blocker = dir.path().join("blocker");
-    std::fs::write(&blocker, "x").unwrap();
-    let (code, err) = run(&[
-        "plan",
-        "--backend",
-        "cpu",
-        "-q",
-        "-o",
-        blocker.join("out").to_str().unwrap(),
-    ]);
-    assert_eq!(code, Some(2), "{err}");
-    // Nothing was left: no output folder, no scratch folder.
-    assert!(!out.exists());
+    let args: Vec<String> = args
+        .iter()
+        .map(|a| {
+            a.replace("{out}", out.to_str().unwrap())
+                .replace("{dir}", dir.path().to_str().unwrap())
+        })
+        .collect();
+    let o = common::maamplan().arg("plan").args(&args).output().unwrap();
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+    assert!(!out.exists(), "{args:?} wrote {}", out.display());
     let left: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .map(|e| e.unwrap().file_name())
@@ -278,5 +256,55 @@ fn failures_leave_nothing_behind() {
         left.iter()
             .all(|n| !n.to_string_lossy().starts_with(".maamplan-")),
         "{left:?}"
+    );
+    err
+}
+
+/// Input error: a malformed waypoint file, named with its line, in one line.
+#[test]
+fn a_malformed_toolpath_fails_cleanly() {
+    let err = plan_fails_cleanly(
+        &["{dir}/bad.txt", "--backend", "cpu", "-o", "{out}"],
+        |dir| std::fs::write(dir.join("bad.txt"), "1 2 3 0 0\n").unwrap(),
+    );
+    assert!(
+        err.contains("bad.txt:1:") && err.lines().count() == 1,
+        "{err}"
+    );
+}
+
+#[test]
+fn a_bad_machine_file_fails_cleanly() {
+    let err = plan_fails_cleanly(
+        &[
+            "--backend",
+            "cpu",
+            "--machine",
+            "{dir}/m.toml",
+            "-o",
+            "{out}",
+        ],
+        |dir| std::fs::write(dir.join("m.toml"), "configuration = 3\n").unwrap(),
+    );
+    assert!(err.contains("m.toml:1:"), "{err}");
+}
+
+/// Usage errors: no output folder; a bad option value.
+#[test]
+fn usage_errors_fail_cleanly() {
+    let err = plan_fails_cleanly(&["--backend", "cpu"], |_| {});
+    assert!(err.contains("--out"), "{err}");
+    plan_fails_cleanly(
+        &["--backend", "cpu", "--alpha", "90", "-o", "{out}"],
+        |_| {},
+    );
+}
+
+/// Unwritable output: a file where the folder should be.
+#[test]
+fn an_unwritable_output_fails_cleanly() {
+    plan_fails_cleanly(
+        &["--backend", "cpu", "-q", "-o", "{dir}/blocker/out"],
+        |dir| std::fs::write(dir.join("blocker"), "x").unwrap(),
     );
 }

@@ -8,18 +8,19 @@ mod common;
 
 use common::{cli, plate};
 
-use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath::{mesh_obj, toolpath_files};
 use maamplan::kinematics::{Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post};
 use maamplan::plan::program::{move_seconds, MoveKind};
-use maamplan::plan::{plan, Plan, PlanOptions};
+use maamplan::plan::{Plan, PlanOptions};
 use maamplan::scene::{Scene, SceneConfig};
-use maamplan::simulate::ProblemKind;
+use maamplan::simulate::{ProblemKind, Simulation};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
-use std::path::Path;
+use std::path::PathBuf;
+use std::process::Output;
+use std::sync::OnceLock;
 
 /// Three rows of waypoints whose nozzles lean, the first turning fast
 /// along its row (the rotary axes set the pace), the others slowly (the
@@ -48,14 +49,20 @@ fn small_toolpath() -> Toolpath {
     }
 }
 
-fn small_scene(tp: &Toolpath) -> Scene {
-    Scene::build(
-        tp,
-        &cone_head(5.0, 5.0, 8.0, 24),
-        &box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]),
-        &SceneConfig::default(),
-    )
-    .unwrap()
+/// [`small_toolpath`] and its scene (a cone head over a plate), built once.
+fn small_job() -> &'static (Toolpath, Scene) {
+    static JOB: OnceLock<(Toolpath, Scene)> = OnceLock::new();
+    JOB.get_or_init(|| {
+        let tp = small_toolpath();
+        let scene = Scene::build(
+            &tp,
+            &cone_head(5.0, 5.0, 8.0, 24),
+            &box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]),
+            &SceneConfig::default(),
+        )
+        .unwrap();
+        (tp, scene)
+    })
 }
 
 fn machine(post: Post) -> Machine {
@@ -66,8 +73,7 @@ fn machine(post: Post) -> Machine {
 }
 
 fn plan_for(tp: &Toolpath, scene: &Scene, m: &Machine) -> Plan {
-    let cpu = CpuBackend::new(scene);
-    plan(scene, tp, m, &cpu, &PlanOptions::default(), &mut |_| {}).unwrap()
+    common::plan_cpu(scene, tp, m, &PlanOptions::default())
 }
 
 /// Every combination the writer offers, with unusual letters and signs.
@@ -92,11 +98,26 @@ fn posts() -> Vec<Post> {
     v
 }
 
+/// The small job planned for each of [`posts`], once; the first is the
+/// default post.
+fn post_plans() -> &'static [(Post, Plan)] {
+    static PLANS: OnceLock<Vec<(Post, Plan)>> = OnceLock::new();
+    PLANS.get_or_init(|| {
+        let (tp, scene) = small_job();
+        posts()
+            .into_iter()
+            .map(|post| {
+                let p = plan_for(tp, scene, &machine(post.clone()));
+                (post, p)
+            })
+            .collect()
+    })
+}
+
 #[test]
 fn each_dialect_reads_back_as_the_planned_motion() {
-    let tp = small_toolpath();
-    let scene = small_scene(&tp);
-    let p = plan_for(&tp, &scene, &machine(Post::default()));
+    let (post, p) = &post_plans()[0];
+    assert_eq!(*post, Post::default());
     let all = p.program.moves(&machine(Post::default()));
     assert!(all
         .iter()
@@ -167,15 +188,14 @@ fn each_dialect_reads_back_as_the_planned_motion() {
 
 #[test]
 fn g93_feeds_reproduce_each_moves_planned_duration() {
-    let tp = small_toolpath();
-    let scene = small_scene(&tp);
+    let (tp, scene) = small_job();
     for dialect in [Dialect::Joint, Dialect::G43_4] {
         let m = machine(Post {
             dialect,
             feed: FeedMode::G93,
             ..Post::default()
         });
-        let p = plan_for(&tp, &scene, &m);
+        let p = plan_for(tp, scene, &m);
         let text = write_gcode(&m, &p.program, &GcodeHeader::default());
         let back = read_program(&text, &m).unwrap();
         let planned: Vec<_> = p
@@ -221,11 +241,9 @@ fn g93_feeds_reproduce_each_moves_planned_duration() {
 
 #[test]
 fn a_plan_for_a_tool_centre_point_controller_passes_the_simulator() {
-    let tp = small_toolpath();
-    let scene = small_scene(&tp);
-    for post in posts() {
+    let (tp, scene) = small_job();
+    for (post, p) in post_plans() {
         let m = machine(post.clone());
-        let p = plan_for(&tp, &scene, &m);
         assert_eq!(p.plan.colliding_edges, 0, "{post:?}");
         let prints = p
             .program
@@ -244,7 +262,7 @@ fn a_plan_for_a_tool_centre_point_controller_passes_the_simulator() {
         }
         let text = write_gcode(&m, &p.program, &GcodeHeader::default());
         let moves = read_program(&text, &m).unwrap();
-        let sim = common::simulate_cpu(&tp, &scene, &m, &moves);
+        let sim = common::simulate_cpu(tp, scene, &m, &moves);
         assert!(sim.problems.is_empty(), "{post:?}: {:?}", sim.problems);
         assert_eq!(sim.summary.printed_waypoints, tp.waypoint_count());
         assert!(sim.summary.checked_moves > 60);
@@ -262,16 +280,31 @@ const AUDIT_DEVIATION_MAX: f64 = 6.774_678_8;
 const AUDIT_DEVIATION_OVER: usize = 98;
 const AUDIT_SPEED_PCT: f64 = 0.180_840_5;
 
+/// `simulate` on the data set's reference G-code for simple_curve, once.
+fn reference_simulation() -> &'static Simulation {
+    static SIM: OnceLock<Simulation> = OnceLock::new();
+    SIM.get_or_init(|| {
+        let job = common::simple_curve_job();
+        let m = Machine::default();
+        let text =
+            std::fs::read_to_string(common::data().join("reference_gcode/simple_curve_Gcode.txt"))
+                .unwrap();
+        let moves = read_program(&text, &m).unwrap();
+        common::simulate_cpu(&job.toolpath, &job.scene, &m, &moves)
+    })
+}
+
+/// `got` is within a percent of the audit's `want`.
+fn assert_within_a_percent(got: f64, want: f64) {
+    assert!(
+        (got - want).abs() <= 0.01 * want,
+        "{got} vs the audit's {want}"
+    );
+}
+
 #[test]
-fn on_the_reference_gcode_simulate_finds_what_the_fcl_audit_finds() {
-    let job = common::simple_curve_job();
-    let m = Machine::default();
-    let text =
-        std::fs::read_to_string(common::data().join("reference_gcode/simple_curve_Gcode.txt"))
-            .unwrap();
-    let moves = read_program(&text, &m).unwrap();
-    let sim = common::simulate_cpu(&job.toolpath, &job.scene, &m, &moves);
-    let hits: Vec<usize> = sim
+fn on_the_reference_gcode_simulate_finds_the_fcl_audits_collisions() {
+    let hits: Vec<usize> = reference_simulation()
         .problems
         .iter()
         .filter(|p| p.kind == ProblemKind::Collision)
@@ -283,90 +316,102 @@ fn on_the_reference_gcode_simulate_finds_what_the_fcl_audit_finds() {
     // The audit checks earlier layers at margin 0; the simulator also the
     // current layer's printed part, at the 0.05 mm margin: a few more at most.
     assert!(hits.len() <= 2 * AUDIT_COLLISION_LINES.len(), "{hits:?}");
-    let s = &sim.summary;
-    let within = |a: f64, b: f64| (a - b).abs() <= 0.01 * b;
-    assert!(
-        within(s.tip_deviation_max_mm, AUDIT_DEVIATION_MAX),
-        "{}",
-        s.tip_deviation_max_mm
-    );
-    assert!(
-        within(
-            s.tip_deviation_over_tolerance as f64,
-            AUDIT_DEVIATION_OVER as f64
-        ),
-        "{}",
-        s.tip_deviation_over_tolerance
-    );
-    assert!(
-        within(s.speed_violation_pct, AUDIT_SPEED_PCT),
-        "{}",
-        s.speed_violation_pct
-    );
-    assert_eq!(s.extruding_moves, 41_473);
 }
 
 #[test]
-fn bad_gcode_is_one_line_naming_the_line_and_writes_nothing() {
+fn on_the_reference_gcode_simulate_measures_the_fcl_audits_tip_deviation() {
+    let s = &reference_simulation().summary;
+    assert_within_a_percent(s.tip_deviation_max_mm, AUDIT_DEVIATION_MAX);
+    assert_within_a_percent(
+        s.tip_deviation_over_tolerance as f64,
+        AUDIT_DEVIATION_OVER as f64,
+    );
+}
+
+#[test]
+fn on_the_reference_gcode_simulate_measures_the_fcl_audits_tip_speed() {
+    let s = &reference_simulation().summary;
+    assert_within_a_percent(s.speed_violation_pct, AUDIT_SPEED_PCT);
+    assert_eq!(s.extruding_moves, 41_473);
+}
+
+/// [`small_toolpath`] and a plate written into a fresh folder, and
+/// `maamplan simulate` run on the program `text` there: the folder, the
+/// output folder and the command's output.
+fn simulate_program(text: &str) -> (tempfile::TempDir, PathBuf, Output) {
     let dir = tempfile::tempdir().unwrap();
-    let tp = small_toolpath();
     let job = dir.path().join("job");
-    write_folder_atomic(&job, &toolpath_files(&tp)).unwrap();
+    write_folder_atomic(&job, &toolpath_files(&small_toolpath())).unwrap();
     let platform = dir.path().join("platform.obj");
     std::fs::write(
         &platform,
         mesh_obj(&box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0])),
     )
     .unwrap();
-    let simulate = |g: &Path, out: &Path| {
-        cli(&[
-            "simulate",
-            g.to_str().unwrap(),
-            job.to_str().unwrap(),
-            "--platform",
-            platform.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "-o",
-            out.to_str().unwrap(),
-        ])
-    };
-    let good = "G90\nG28 X0 Y0 Z50 B0 C0\nG1 X1 Y0 Z0.6 E1 F1500\n";
-    for (text, line, what) in [
-        (format!("{good}G1 X2 Q5\n"), 4, "unknown word 'Q'"),
-        (
-            format!("{good}G1 XNaN\n"),
-            4,
-            "'XNaN' is not a letter and a finite number",
-        ),
-        (
-            "G90\nG28 X0 Y0 Z50\nG1 X1 E1\n".to_string(),
-            3,
-            "B, C unknown",
-        ),
-        (format!("{good}G2 X1 Y1 I1 J0\n"), 4, "unsupported code G2"),
-    ] {
-        let g = dir.path().join("bad.gcode");
-        std::fs::write(&g, &text).unwrap();
-        let out = dir.path().join("out");
-        let o = simulate(&g, &out);
-        let err = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{err}");
-        assert_eq!(err.trim().lines().count(), 1, "{err}");
-        assert!(
-            err.contains(&format!("bad.gcode:{line}:")) && err.contains(what),
-            "{err}"
-        );
-        assert!(!out.exists(), "nothing written");
-    }
-    // The good program runs and writes its report.
-    let g = dir.path().join("good.gcode");
-    std::fs::write(&g, good).unwrap();
+    let g = dir.path().join("program.gcode");
+    std::fs::write(&g, text).unwrap();
     let out = dir.path().join("out");
-    let o = simulate(&g, &out);
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).unwrap()).unwrap();
+    let o = cli(&[
+        "simulate",
+        g.to_str().unwrap(),
+        job.to_str().unwrap(),
+        "--platform",
+        platform.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    (dir, out, o)
+}
+
+/// A program that sets every axis and prints one move.
+const GOOD: &str = "G90\nG28 X0 Y0 Z50 B0 C0\nG1 X1 Y0 Z0.6 E1 F1500\n";
+
+/// `simulate` refuses `text` in one line naming its `line` and saying
+/// `what`, exit 2, and writes nothing.
+fn assert_bad_gcode(text: &str, line: usize, what: &str) {
+    let (_dir, out, o) = simulate_program(text);
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains(&format!("program.gcode:{line}:")) && err.contains(what),
+        "{err}"
+    );
+    assert!(!out.exists(), "nothing written");
+}
+
+#[test]
+fn an_unknown_gcode_word_is_refused() {
+    assert_bad_gcode(&format!("{GOOD}G1 X2 Q5\n"), 4, "unknown word 'Q'");
+}
+
+#[test]
+fn a_gcode_word_without_a_finite_number_is_refused() {
+    assert_bad_gcode(
+        &format!("{GOOD}G1 XNaN\n"),
+        4,
+        "'XNaN' is not a letter and a finite number",
+    );
+}
+
+#[test]
+fn gcode_moving_before_every_axis_is_known_is_refused() {
+    assert_bad_gcode("G90\nG28 X0 Y0 Z50\nG1 X1 E1\n", 3, "B, C unknown");
+}
+
+#[test]
+fn an_unsupported_gcode_is_refused() {
+    assert_bad_gcode(&format!("{GOOD}G2 X1 Y1 I1 J0\n"), 4, "unsupported code G2");
+}
+
+/// The good program runs and writes its report.
+#[test]
+fn simulate_writes_its_report() {
+    let (_dir, out, o) = simulate_program(GOOD);
+    common::assert_success(&o);
+    let report = common::read_json(&out.join("report.json"));
     assert_eq!(report["summary"]["moves"], 1);
     let html = std::fs::read_to_string(out.join("report.html")).unwrap();
     for id in [

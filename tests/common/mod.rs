@@ -1,14 +1,22 @@
 //! Shared helpers for integration tests: random scenes, the margins to
-//! sweep, and a near-contact measure (brute force's f64 distance) for
-//! judging disagreements.
+//! sweep, a near-contact measure (brute force's f64 distance) for judging
+//! disagreements, the plans several tests of a binary share (each planned
+//! once per binary), and the `maamplan` command with its head cache in a
+//! scratch folder of the test binary's own.
 #![allow(dead_code)]
 
 use maamplan::collide::brute::BruteBackend;
+use maamplan::collide::cpu::CpuBackend;
 use maamplan::geometry::{Mesh, Pose, V3};
-use maamplan::scene::{Query, Scene};
+use maamplan::kinematics::Machine;
+use maamplan::plan::{plan, Plan, PlanOptions};
+use maamplan::scene::{Query, Scene, SceneConfig};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::OnceLock;
 
 /// Seeded RNG.
 pub fn rng(seed: u64) -> ChaCha8Rng {
@@ -309,15 +317,7 @@ pub fn margin_cases() -> Vec<MarginCase> {
     let mut cases = Vec::new();
 
     // The head's bottom face 0.04 mm above the square at z = 1.
-    let square = Mesh {
-        vertices: vec![
-            [-1.0, -1.0, 1.0],
-            [1.0, -1.0, 1.0],
-            [1.0, 1.0, 1.0],
-            [-1.0, 1.0, 1.0],
-        ],
-        triangles: vec![[0, 1, 2], [0, 2, 3]],
-    };
+    let square = plate([-1.0, 1.0], [-1.0, 1.0], 1.0);
     let tp = one_layer(square, [0.0, 0.0, 1.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(None)).unwrap();
     let hover = [0.0, 0.0, 1.04];
@@ -473,12 +473,138 @@ pub fn plate(x: [f32; 2], y: [f32; 2], z: f32) -> Mesh {
     }
 }
 
-/// Run the `maamplan` binary with `args` (Mesa's loader pointed at a
-/// harmless runtime folder).
-pub fn cli(args: &[&str]) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_maamplan"))
+/// The name of the test binary this module is compiled into.
+fn binary_name() -> &'static str {
+    module_path!().split("::").next().unwrap()
+}
+
+/// This test binary's own scratch folder (under Cargo's
+/// `CARGO_TARGET_TMPDIR`), emptied the first time a test asks for it, so
+/// that every run starts from nothing and nothing is written outside the
+/// build folder.
+pub fn scratch() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(binary_name());
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    })
+}
+
+/// The `maamplan` binary as a command: the head cache in this test
+/// binary's scratch folder (`MAAMPLAN_CACHE_DIR`, never the user's home)
+/// and Mesa's loader pointed at a harmless runtime folder.
+pub fn maamplan() -> Command {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_maamplan"));
+    command
+        .env("MAAMPLAN_CACHE_DIR", scratch().join("cache"))
+        .env("XDG_RUNTIME_DIR", std::env::temp_dir());
+    command
+}
+
+/// Run the `maamplan` binary with `args` ([`maamplan`]).
+pub fn cli(args: &[&str]) -> Output {
+    maamplan().args(args).output().unwrap()
+}
+
+/// What a finished command wrote to stderr.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// Panic with the command's stderr unless it succeeded.
+pub fn assert_success(o: &Output) {
+    assert!(o.status.success(), "{}", stderr(o));
+}
+
+/// A JSON file the CLI wrote.
+pub fn read_json(path: &Path) -> serde_json::Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap()
+}
+
+/// `maamplan plan --backend cpu` with `args` on the embedded default job,
+/// written into `name` in this binary's scratch folder; the folder. For
+/// fixtures that run the command once per binary.
+pub fn plan_default_job(name: &str, args: &[&str]) -> PathBuf {
+    let out = scratch().join(name);
+    let o = maamplan()
+        .args(["plan", "--backend", "cpu"])
         .args(args)
-        .env("XDG_RUNTIME_DIR", std::env::temp_dir())
+        .arg("-o")
+        .arg(&out)
         .output()
-        .unwrap()
+        .unwrap();
+    assert_success(&o);
+    out
+}
+
+/// `plan` on the cpu backend, progress ignored.
+pub fn plan_cpu(scene: &Scene, toolpath: &Toolpath, machine: &Machine, opts: &PlanOptions) -> Plan {
+    let cpu = CpuBackend::new(scene);
+    plan(scene, toolpath, machine, &cpu, opts, &mut |_| {}).unwrap()
+}
+
+/// The scene of `toolpath`, `head` and `platform` (default configuration)
+/// and its plan on the cpu backend with the default options.
+pub fn plan_scene(
+    toolpath: &Toolpath,
+    head: &Mesh,
+    platform: &Mesh,
+    machine: &Machine,
+) -> (Scene, Plan) {
+    let scene = Scene::build(toolpath, head, platform, &SceneConfig::default()).unwrap();
+    let p = plan_cpu(&scene, toolpath, machine, &PlanOptions::default());
+    (scene, p)
+}
+
+/// simple_curve ([`simple_curve_job`]) planned once per test binary with
+/// the default machine and options on the cpu backend.
+pub fn simple_curve_plan() -> &'static (maamplan::job::Job, Plan) {
+    static PLAN: OnceLock<(maamplan::job::Job, Plan)> = OnceLock::new();
+    PLAN.get_or_init(|| {
+        let job = simple_curve_job();
+        let p = plan_cpu(
+            &job.scene,
+            &job.toolpath,
+            &Machine::default(),
+            &PlanOptions::default(),
+        );
+        (job, p)
+    })
+}
+
+/// The embedded default job ([`default_scene`]) planned once per test
+/// binary with the default machine and options on the cpu backend.
+pub fn default_plan() -> &'static (maamplan::default_job::Job, Scene, Plan) {
+    static PLAN: OnceLock<(maamplan::default_job::Job, Scene, Plan)> = OnceLock::new();
+    PLAN.get_or_init(|| {
+        let (job, scene) = default_scene();
+        let p = plan_cpu(
+            &scene,
+            &job.toolpath,
+            &Machine::default(),
+            &PlanOptions::default(),
+        );
+        (job, scene, p)
+    })
+}
+
+/// `v` as a unit vector in f32.
+pub fn unit(v: [f64; 3]) -> [f32; 3] {
+    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+    [(v[0] / l) as f32, (v[1] / l) as f32, (v[2] / l) as f32]
+}
+
+/// Write a job the CLI can read into `dir`: the toolpath folder `tp`,
+/// `head.obj` and `platform.obj`. Returns the toolpath folder.
+pub fn write_job(dir: &Path, toolpath: &Toolpath, head: &Mesh, platform: &Mesh) -> PathBuf {
+    use maamplan::io::output::write_folder_atomic;
+    use maamplan::io::toolpath::{mesh_obj, toolpath_files};
+    let tp = dir.join("tp");
+    write_folder_atomic(&tp, &toolpath_files(toolpath)).unwrap();
+    std::fs::write(dir.join("head.obj"), mesh_obj(head)).unwrap();
+    std::fs::write(dir.join("platform.obj"), mesh_obj(platform)).unwrap();
+    tp
 }
