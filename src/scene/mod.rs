@@ -12,9 +12,7 @@ pub mod hull_plane;
 pub mod slab;
 mod stamp;
 
-pub use gpu_types::{
-    GpuHeadParams, GpuMotion, GpuMove, GpuNode, GpuParams, GpuPartNode, GpuQuery, GpuTriangle,
-};
+pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
 pub use head::{Head, HeadConfig};
 pub use head_cache::CacheOutcome;
 pub use stamp::{cutoff, stamp_of};
