@@ -9,6 +9,7 @@ pub mod gpu_types;
 pub mod head;
 pub mod head_cache;
 pub mod hull_plane;
+mod nearest;
 pub mod slab;
 mod stamp;
 
