@@ -56,13 +56,18 @@ fn named_type(module: &naga::Module, name: &str) -> naga::Handle<naga::Type> {
         .unwrap_or_else(|| panic!("no type {name}"))
 }
 
-/// The byte offset of each member of the WGSL struct `name`.
-fn member_offsets(module: &naga::Module, name: &str) -> Vec<(String, u32)> {
+/// The members of the WGSL struct `name`.
+fn struct_members<'m>(module: &'m naga::Module, name: &str) -> &'m [naga::StructMember] {
     let naga::TypeInner::Struct { members, .. } = &module.types[named_type(module, name)].inner
     else {
         panic!("{name} is a struct")
     };
     members
+}
+
+/// The byte offset of each member of the WGSL struct `name`.
+fn member_offsets(module: &naga::Module, name: &str) -> Vec<(String, u32)> {
+    struct_members(module, name)
         .iter()
         .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
         .collect()
@@ -177,11 +182,9 @@ fn query_cutoff_and_margin_sit_where_rust_puts_them() {
     let module = parsed("collide_traverse", COLLIDE_TRAVERSE);
     assert_eq!(member_offset(&module, "Query", "cutoff"), Some(48));
     assert_eq!(member_offset(&module, "Query", "margin"), Some(52));
-    let naga::TypeInner::Struct { members, .. } = &module.types[named_type(&module, "Query")].inner
-    else {
-        panic!("Query is a struct")
-    };
-    let margin = members.iter().find(|m| m.name.as_deref() == Some("margin"));
+    let margin = struct_members(&module, "Query")
+        .iter()
+        .find(|m| m.name.as_deref() == Some("margin"));
     let is_f32 = |m: &&naga::StructMember| {
         matches!(
             module.types[m.ty].inner,

@@ -223,12 +223,7 @@ pub fn tri_tri_distance64(s: &[D3; 3], t: &[D3; 3]) -> f64 {
     }
     for i in 0..3 {
         for j in 0..3 {
-            best = best.min(segment_distance(
-                s[i],
-                s[(i + 1) % 3],
-                t[j],
-                t[(j + 1) % 3],
-            ));
+            best = best.min(segment_distance(s[i], s[(i + 1) % 3], t[j], t[(j + 1) % 3]));
         }
     }
     best

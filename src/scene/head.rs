@@ -19,8 +19,7 @@
 //! them outside the head) and settles points the fine grid does not reach
 //! the same way; beyond both, the distance to the head's box. Without it,
 //! big part nodes below a cone-shaped head are bounded only by the box's
-//! flat bottom at the tip's height and are never culled (on simple_curve
-//! about half of all node visits).
+//! flat bottom at the tip's height and are never culled.
 
 use super::bvh::{self, StampedBvh};
 use super::gpu_types::{GpuHeadParams, GpuNode, GpuTriangle};
@@ -392,7 +391,12 @@ fn column(
 
 /// A column's cells as stored: each distance capped at `band`, negative
 /// where an odd number of `crossings` lie above the cell's centre.
-fn signed_column(layout: &GridLayout, band: f64, dist: &[f64], mut crossings: Vec<f64>) -> Vec<f32> {
+fn signed_column(
+    layout: &GridLayout,
+    band: f64,
+    dist: &[f64],
+    mut crossings: Vec<f64>,
+) -> Vec<f32> {
     crossings.sort_by(f64::total_cmp);
     (0..layout.dims[2] as usize)
         .map(|k| {

@@ -87,7 +87,8 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
         }
         let (n, c) = (decoded(i), centre(i));
         let b = &nodes[i];
-        let box_centre: [f64; 3] = std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64));
+        let box_centre: [f64; 3] =
+            std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64));
         let mid = n.dot(DVec3::from(box_centre) - c);
         let half: f64 = (0..3)
             .map(|k| n[k].abs() * 0.5 * (b.max[k] as f64 - b.min[k] as f64))
@@ -190,9 +191,9 @@ fn area_normal(t: &crate::scene::GpuTriangle) -> DVec3 {
 /// and of their mirror image), each an IEEE half rounded up
 /// ([`half_at_least`]: at most 1/1024 of the value, 0.06 mm at a head's
 /// 100 mm), stored as the bits of an f32. The slab test needs both sides
-/// of the head along a direction; as two cells of f32 it read two words,
-/// and on lavapipe each read with a per-query index is a loop over the
-/// SIMD lanes (a read is 7 % of a node test's instructions there).
+/// of the head along a direction; as two cells of f32 it would read two
+/// words, and on lavapipe each read with a per-query index is a loop over
+/// the SIMD lanes.
 /// Rounding up only loosens the test; what it culls is still clear.
 pub fn support_pairs(vertices: &[[f32; 3]]) -> Vec<f32> {
     let mirrored: Vec<[f32; 3]> = vertices.iter().map(|v| v.map(|x| -x)).collect();
@@ -485,7 +486,10 @@ mod tests {
                             only_layers &= t.stamp <= 6 * 1600;
                             layers.insert((t.stamp - 1) / 1600);
                             for v in [t.v0, t.v1, t.v2] {
-                                let d = dot(n, (DVec3::from(v.map(|x| x as f64)) - DVec3::from(c)).to_array());
+                                let d = dot(
+                                    n,
+                                    (DVec3::from(v.map(|x| x as f64)) - DVec3::from(c)).to_array(),
+                                );
                                 assert!(d >= lo && d <= hi, "node {i}: {d} outside [{lo}, {hi}]");
                             }
                         }

@@ -265,8 +265,7 @@ pub fn node_hull_clear(
 /// a²)`, `a` in the slab's interval) has `n · x ≥ n · c + α a − β √(r² −
 /// a²)`, least at `a = −α r` clamped to the interval. A flat node beside
 /// a tilted head's flank, nearly parallel to it, is bounded by about its
-/// distance, where its sphere alone reaches into the head (on simple_curve
-/// tilted 50° the graph's queries took 1.9 s instead of 3.4 s). `β` is
+/// distance, where its sphere alone reaches into the head. `β` is
 /// taken from `1 − α² + 10⁻⁶` (the f32 normals are unit only within
 /// rounding, and `√` is steep near 0), and `10⁻⁵ r` more is given up for
 /// the rest of the rounding.
@@ -358,8 +357,8 @@ pub fn clears_centre(c: V3, origin: V3, cell: f32, [ix, iy, iz]: [u32; 3], slack
 /// plus the margin (exactly the tolerance at margin 0); per head
 /// triangle, Möller first, then — margin > 0 only — the head triangle
 /// against the part triangle's plane (Möller's own plane, so the dot
-/// products are shared: farther than the margin on one side settles ~97 %
-/// of pairs on simple_curve), the two triangles' boxes grown by the same
+/// products are shared: farther than the margin on one side settles most
+/// pairs), the two triangles' boxes grown by the same
 /// amount, and [`tri_tri_closer_than`] (the other plane, then the exact
 /// distance). Crossing and nearness share the walk because a second walk
 /// per undecided triangle cost more than the distance tests themselves.

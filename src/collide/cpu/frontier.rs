@@ -23,9 +23,8 @@
 //! children in it, where a walk from the root would now skip their
 //! parent), so once it has grown by half over the last cut found from the
 //! root, the next walk starts from the root again: cuts that are never
-//! reset grow to many times the root's and cost more than they save (of
-//! the thresholds tried, between 1.3 and 1.5 times paid best). A hit ends
-//! the walk early and leaves no cut.
+//! reset grow to many times the root's and cost more than they save. A
+//! hit ends the walk early and leaves no cut.
 
 use super::common::{
     grid_sample, head_tri, node_hull_gap, slab_gap, sphere_margin, to_head, tri_hits_exact,

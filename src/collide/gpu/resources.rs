@@ -20,8 +20,8 @@ pub const TRI_CHUNKS: usize = 4;
 /// Invocations per workgroup of every `collide_*` kernel (`WORKGROUP` in
 /// `collide_common.wgsl`, `@workgroup_size` of the entry points).
 pub(super) const WORKGROUP: u32 = 64;
-/// Candidate slots per query in a batch (the average on simple_curve's
-/// tilted poses is about 40).
+/// Candidate slots per query in a batch (more than a tilted pose over a
+/// printed part hands over on average).
 const CANDIDATES_PER_QUERY: u64 = 64;
 
 /// The largest storage binding the device (and the caller's cap) allows,

@@ -61,7 +61,11 @@ pub(super) fn fit_boxes(nodes: &mut [GpuNode], tris: &[GpuTriangle]) {
 
 /// Every node's smallest stamp below it, for `n` nodes given by their
 /// `packed` words over `tris`.
-pub(super) fn min_stamps(n: usize, packed: impl Fn(usize) -> u32, tris: &[GpuTriangle]) -> Vec<u32> {
+pub(super) fn min_stamps(
+    n: usize,
+    packed: impl Fn(usize) -> u32,
+    tris: &[GpuTriangle],
+) -> Vec<u32> {
     let leaf = |first: u32, count: u32| {
         (first..first + count)
             .map(|t| tris[t as usize].stamp)

@@ -105,11 +105,13 @@ const PARALLEL_PRIMS: u32 = 1 << 14;
 /// different threads: the first measures every subtree from the leaves
 /// up ([`measure`], the collapse included), the second writes each
 /// subtree into the slots the first found for it ([`write`]). obvhs's
-/// own collapse rebuilds its node array and parent links, and with the
-/// copy and walk this replaces took longer (dome_cut's 2.2 M-triangle
-/// build on two cores: 0.60 → 0.35 s); the tree, and so the layout, are
-/// the same (test `the_layout_walks_obvhs_collapsed_tree`).
-pub(super) fn lay_out(bvh: &Bvh2, collapse: Collapse) -> Result<(Vec<GpuNode>, Vec<u32>, usize), SceneError> {
+/// own collapse rebuilds its node array and parent links, which with a
+/// copy and a walk of its own costs more than these two; the tree, and so
+/// the layout, are the same (test `the_layout_walks_obvhs_collapsed_tree`).
+pub(super) fn lay_out(
+    bvh: &Bvh2,
+    collapse: Collapse,
+) -> Result<(Vec<GpuNode>, Vec<u32>, usize), SceneError> {
     let measured: Vec<AtomicU64> = (0..bvh.nodes.len()).map(|_| AtomicU64::new(0)).collect();
     let rule = (!collapse.skips(bvh)).then_some(collapse);
     let root = measure(bvh, 0, 0, rule, &measured)?;

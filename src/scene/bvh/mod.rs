@@ -37,8 +37,6 @@ use obvhs::triangle::Triangle;
 use obvhs::BvhBuildParams;
 use rayon::prelude::*;
 
-
-
 /// A BVH and its triangles, reordered so each leaf's triangles are contiguous.
 #[derive(Clone, Debug)]
 pub struct StampedBvh {
