@@ -120,10 +120,10 @@ impl GpuBackend {
         machine: &Machine,
         moves: &[SampledMove],
     ) -> Result<Vec<GpuQuery>, CollideError> {
-        let mut gm = Vec::new();
+        let mut gpu_moves = Vec::new();
         let mut total = 0usize;
         for mv in moves {
-            gm.push(gpu_move(mv, total as u32));
+            gpu_moves.push(gpu_move(mv, total as u32));
             total += mv.intervals.saturating_sub(1) as usize;
         }
         self.fits(total)?;
@@ -133,15 +133,15 @@ impl GpuBackend {
         q.write_buffer(
             &set.motion,
             0,
-            bytemuck::bytes_of(&gpu_motion(machine, gm.len())),
+            bytemuck::bytes_of(&gpu_motion(machine, gpu_moves.len())),
         );
-        if !gm.is_empty() {
-            q.write_buffer(&set.moves, 0, bytemuck::cast_slice(&gm));
+        if !gpu_moves.is_empty() {
+            q.write_buffer(&set.moves, 0, bytemuck::cast_slice(&gpu_moves));
         }
         let size = std::mem::size_of::<GpuQuery>() as u64;
         let copy = self.scratch("expanded queries", total as u64 * size);
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-        self.encode_motion(&mut enc, set, &self.pipelines.expand, gm.len());
+        self.encode_motion(&mut enc, set, &self.pipelines.expand, gpu_moves.len());
         enc.copy_buffer_to_buffer(&set.queries, 0, &copy, 0, total as u64 * size);
         let index = self.send(enc);
         let words = self.map_words(&copy, total * size as usize / 4, Some(index))?;

@@ -59,6 +59,17 @@ pub fn gpu_move(mv: &SampledMove, first: u32) -> GpuMove {
     }
 }
 
+/// A batch of consecutive moves as the device gets them.
+#[derive(Default)]
+struct MoveBatch {
+    /// Each move's index in the caller's list.
+    owners: Vec<usize>,
+    /// The moves, each with its samples' first query slot.
+    moves: Vec<GpuMove>,
+    /// Their samples in all (query slots used).
+    samples: usize,
+}
+
 /// Moves: their samples posed (`collide_expand`) and their verdicts
 /// reduced (`collide_reduce`) on the device; one move record goes up and
 /// one word per move comes back.
@@ -87,9 +98,29 @@ impl GpuBackend {
         machine: &Machine,
         moves: &[SampledMove],
     ) -> Result<Vec<bool>, CollideError> {
-        // Batches of consecutive moves, each with its samples' first slot.
-        let mut batches: Vec<(Vec<usize>, Vec<GpuMove>, usize)> = Vec::new();
-        let mut current: (Vec<usize>, Vec<GpuMove>, usize) = Default::default();
+        let batches = self.move_batches(moves)?;
+        let mut out = vec![false; moves.len()];
+        let mut pending: Option<(usize, &MoveBatch, wgpu::SubmissionIndex)> = None;
+        for (k, batch) in batches.iter().enumerate() {
+            let s = k % 2;
+            let index = self.submit_moves(s, machine, batch);
+            if let Some((ps, pb, pi)) = pending.take() {
+                self.finish_moves(ps, pb, pi, &mut out)?;
+            }
+            pending = Some((s, batch, index));
+        }
+        if let Some((ps, pb, pi)) = pending {
+            self.finish_moves(ps, pb, pi, &mut out)?;
+        }
+        Ok(out)
+    }
+
+    /// `moves` cut into batches of consecutive moves of at most `batch`
+    /// samples (moves without samples left out); an error for a move with
+    /// more samples than a batch holds.
+    fn move_batches(&self, moves: &[SampledMove]) -> Result<Vec<MoveBatch>, CollideError> {
+        let mut batches = Vec::new();
+        let mut current = MoveBatch::default();
         for (i, mv) in moves.iter().enumerate() {
             let count = mv.intervals.saturating_sub(1) as usize;
             if count == 0 {
@@ -101,30 +132,17 @@ impl GpuBackend {
                     self.tuning.batch
                 )));
             }
-            if current.2 + count > self.tuning.batch {
+            if current.samples + count > self.tuning.batch {
                 batches.push(std::mem::take(&mut current));
             }
-            current.1.push(gpu_move(mv, current.2 as u32));
-            current.0.push(i);
-            current.2 += count;
+            current.moves.push(gpu_move(mv, current.samples as u32));
+            current.owners.push(i);
+            current.samples += count;
         }
-        if current.2 > 0 {
+        if current.samples > 0 {
             batches.push(current);
         }
-        let mut out = vec![false; moves.len()];
-        let mut pending: Option<(usize, usize, wgpu::SubmissionIndex)> = None;
-        for (k, (_, gm, total)) in batches.iter().enumerate() {
-            let s = k % 2;
-            let index = self.submit_moves(s, machine, gm, *total);
-            if let Some((ps, pk, pi)) = pending.take() {
-                self.finish_moves(ps, &batches[pk], pi, &mut out)?;
-            }
-            pending = Some((s, k, index));
-        }
-        if let Some((ps, pk, pi)) = pending {
-            self.finish_moves(ps, &batches[pk], pi, &mut out)?;
-        }
-        Ok(out)
+        Ok(batches)
     }
 
     /// Encode and submit a batch of moves on set `s`: their samples posed
@@ -133,9 +151,9 @@ impl GpuBackend {
         &self,
         s: usize,
         machine: &Machine,
-        gm: &[GpuMove],
-        total: usize,
+        batch: &MoveBatch,
     ) -> wgpu::SubmissionIndex {
+        let (moves, total) = (&batch.moves, batch.samples);
         let set = &self.sets[s];
         let q = &self.ctx.queue;
         q.write_buffer(
@@ -146,15 +164,15 @@ impl GpuBackend {
         q.write_buffer(
             &set.motion,
             0,
-            bytemuck::bytes_of(&gpu_motion(machine, gm.len())),
+            bytemuck::bytes_of(&gpu_motion(machine, moves.len())),
         );
-        q.write_buffer(&set.moves, 0, bytemuck::cast_slice(gm));
+        q.write_buffer(&set.moves, 0, bytemuck::cast_slice(moves));
         let mut enc = self.ctx.device.create_command_encoder(&Default::default());
         enc.clear_buffer(&set.results, 0, Some(total as u64 * 4));
-        self.encode_motion(&mut enc, set, &self.pipelines.expand, gm.len());
-        let margins = gm.iter().any(|m| m.margin > 0.0);
+        self.encode_motion(&mut enc, set, &self.pipelines.expand, moves.len());
+        let margins = moves.iter().any(|m| m.margin > 0.0);
         self.encode_passes(&mut enc, set, total, margins);
-        self.encode_reduce(&mut enc, set, gm.len());
+        self.encode_reduce(&mut enc, set, moves.len());
         self.send(enc)
     }
 
@@ -189,24 +207,24 @@ impl GpuBackend {
     fn finish_moves(
         &self,
         s: usize,
-        (owners, gm, total): &(Vec<usize>, Vec<GpuMove>, usize),
+        batch: &MoveBatch,
         index: wgpu::SubmissionIndex,
         out: &mut [bool],
     ) -> Result<(), CollideError> {
         let set = &self.sets[s];
-        let margins = gm.iter().any(|m| m.margin > 0.0);
-        let (_, resumed) = self.settle(s, *total, margins, index.clone())?;
+        let margins = batch.moves.iter().any(|m| m.margin > 0.0);
+        let (_, resumed) = self.settle(s, batch.samples, margins, index.clone())?;
         let index = if resumed {
             // The reduction in the first submission saw the first pass's
             // verdicts only.
             let mut enc = self.ctx.device.create_command_encoder(&Default::default());
-            self.encode_reduce(&mut enc, set, gm.len());
+            self.encode_reduce(&mut enc, set, batch.moves.len());
             self.send(enc)
         } else {
             index
         };
-        let words = self.map_words(&set.move_readback, gm.len(), Some(index))?;
-        for (&i, w) in owners.iter().zip(words) {
+        let words = self.map_words(&set.move_readback, batch.moves.len(), Some(index))?;
+        for (&i, w) in batch.owners.iter().zip(words) {
             out[i] = w & RESULT_HIT != 0;
         }
         Ok(())
