@@ -96,6 +96,32 @@ impl GpuBackend {
         *self.stats.lock().unwrap_or_else(|e| e.into_inner())
     }
 
+    /// Run `batches` through the two buffer sets in turn, two in flight:
+    /// `submit(set, batch)` encodes and submits one, and
+    /// `finish(set, batch, index)` settles the one before it once the next
+    /// is on its way (so the device computes one while the host reads the
+    /// other back), each batch finished in order.
+    pub(super) fn two_in_flight<T: Copy>(
+        &self,
+        batches: impl IntoIterator<Item = T>,
+        submit: impl Fn(usize, T) -> wgpu::SubmissionIndex,
+        mut finish: impl FnMut(usize, T, wgpu::SubmissionIndex) -> Result<(), CollideError>,
+    ) -> Result<(), CollideError> {
+        let mut pending: Option<(usize, T, wgpu::SubmissionIndex)> = None;
+        for (k, batch) in batches.into_iter().enumerate() {
+            let s = k % 2;
+            let index = submit(s, batch);
+            if let Some((ps, pb, pi)) = pending.take() {
+                finish(ps, pb, pi)?;
+            }
+            pending = Some((s, batch, index));
+        }
+        if let Some((ps, pb, pi)) = pending {
+            finish(ps, pb, pi)?;
+        }
+        Ok(())
+    }
+
     /// Run `work` (one caller's call) and count its wall time in
     /// [`GpuStats::host`] and [`GpuStats::waiting`].
     pub(super) fn timed<T>(&self, work: impl FnOnce() -> T) -> T {

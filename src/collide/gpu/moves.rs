@@ -100,18 +100,11 @@ impl GpuBackend {
     ) -> Result<Vec<bool>, CollideError> {
         let batches = self.move_batches(moves)?;
         let mut out = vec![false; moves.len()];
-        let mut pending: Option<(usize, &MoveBatch, wgpu::SubmissionIndex)> = None;
-        for (k, batch) in batches.iter().enumerate() {
-            let s = k % 2;
-            let index = self.submit_moves(s, machine, batch);
-            if let Some((ps, pb, pi)) = pending.take() {
-                self.finish_moves(ps, pb, pi, &mut out)?;
-            }
-            pending = Some((s, batch, index));
-        }
-        if let Some((ps, pb, pi)) = pending {
-            self.finish_moves(ps, pb, pi, &mut out)?;
-        }
+        self.two_in_flight(
+            &batches,
+            |s, batch| self.submit_moves(s, machine, batch),
+            |s, batch, index| self.finish_moves(s, batch, index, &mut out),
+        )?;
         Ok(out)
     }
 

@@ -215,18 +215,11 @@ impl GpuBackend {
     /// flight.
     fn run_in_order(&self, queries: &[Query]) -> Result<Vec<bool>, CollideError> {
         let mut out = Vec::with_capacity(queries.len());
-        let mut pending: Option<(usize, &[Query], wgpu::SubmissionIndex)> = None;
-        for (k, chunk) in queries.chunks(self.tuning.batch).enumerate() {
-            let s = k % 2;
-            let index = self.submit(s, chunk);
-            if let Some((ps, pb, pi)) = pending.take() {
-                self.finish(ps, pb, pi, &mut out)?;
-            }
-            pending = Some((s, chunk, index));
-        }
-        if let Some((ps, pb, pi)) = pending {
-            self.finish(ps, pb, pi, &mut out)?;
-        }
+        self.two_in_flight(
+            queries.chunks(self.tuning.batch),
+            |s, chunk| self.submit(s, chunk),
+            |s, chunk, index| self.finish(s, chunk, index, &mut out),
+        )?;
         Ok(out)
     }
 }
