@@ -1,6 +1,7 @@
 // Pass 2, one invocation per candidate (query, triangle): the exact tests
 // (Möller against the head, then containment, then the distance when the
 // query has a safety margin) for triangles the grid could not settle.
+// Mirrored by src/collide/cpu/exact.rs.
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

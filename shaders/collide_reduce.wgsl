@@ -1,6 +1,6 @@
 // After a batch of moves, one invocation per move: the move collides when
 // any of its samples does (one word per move comes back, not one per
-// sample).
+// sample). Mirrored by src/collide/cpu/reduce.rs.
 
 @compute @workgroup_size(64)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {

@@ -8,8 +8,7 @@
 // A query hands over at most params.per_query pairs a pass and stops
 // walking when it meets one more: a colliding query's first pairs (the
 // deepest nodes are walked first) mostly settle it, and the rest of its
-// walk is never made (walking on to its end made the tilted
-// simple_curve's gpu plan 1.3 times as long). The list is shared by the
+// walk, often the longer part, is never made. The list is shared by the
 // batch and may fill; the counter only grows, so once one append of a
 // query fails every later one would, and the walk stops there too. Either
 // way the pairs a query handed over are the first ones of its walk order.
@@ -20,9 +19,8 @@
 // Children are tested before they are pushed, the one reaching deeper
 // into the head on top: a colliding query meets a node or triangle
 // wholly inside the head sooner, which decides it without exact tests
-// (on the tilted simple_curve plan 2.5 M exact tests became 1.6 M and
-// the plan took 0.8 of the time it took walking the nearer child to the
-// tip first). Mirrored by src/collide/cpu/traverse.rs.
+// (fewer than walking the nearer child to the tip first). Mirrored by
+// src/collide/cpu/traverse.rs.
 //
 // This file is one query's walk, a step at a time (`Walk`); the entry
 // point that hands queries to invocations is traverse_lane.wgsl (one

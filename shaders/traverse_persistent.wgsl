@@ -1,27 +1,25 @@
 // collide_traverse's entry point on adapters with subgroups: persistent
 // lanes. A subgroup's lanes run in lock-step, so one invocation a query
-// keeps every lane until the group's longest walk ends (on simple_curve's
-// bench mix a lane walks 63 nodes, its group of 8 as long as 109).
-// Here an invocation whose walk has ended takes the next query of the
-// batch (`control.next`) and walks on. Taking one costs reads (the query,
-// the root), so a subgroup walks until a quarter of its lanes wait, then
-// they all take their next query together (Aila and Laine's persistent
-// threads with dynamic fetch). On lavapipe, simple_curve's bench mix: 0.86
-// of the instructions of one query an invocation (traverse_lane.wgsl;
-// refilling at a half of the lanes or at one lane was dearer in a first
-// version, below, that took queries without bound).
+// keeps every lane until the group's longest walk ends, which is often
+// nearly twice an average lane's. Here an invocation whose walk has
+// ended takes the next query of the batch (`control.next`) and walks on.
+// Taking one costs reads (the query, the root), so a subgroup walks until
+// a quarter of its lanes wait, then they all take their next query
+// together (Aila and Laine's persistent threads with dynamic fetch):
+// fewer instructions than one query an invocation (traverse_lane.wgsl),
+// and fewer than refilling at a half of the lanes or at one lane.
 //
 // Every invocation takes its first query whatever happens, and a batch
 // dispatches one invocation per query, so every query is walked. Later
 // takes stop after LANE_QUERIES queries, or once the lane's walks have
 // made LANE_STEPS loop iterations (a node, or a leaf and its triangles):
-// lavapipe (Mesa 22.3) ends an invocation's loops after 65,535
-// iterations in all (its loop limiter), and lanes that took queries
-// without end reached that on the tilted simple_curve and left queries
+// lavapipe ends an invocation's loops after 65,535 iterations in all (its
+// loop limiter), and lanes that take queries without end can reach that
+// on long walks (a tilted head over a printed part) and leave queries
 // unwalked. A subgroup's lanes share that count (they run as one SIMD
 // loop), and a lane's steps bound the group's iterations only while it
-// walks, so LANE_STEPS is an eighth of the limit: 16 queries of the
-// tilted row take a few thousand.
+// walks, so LANE_STEPS is an eighth of the limit: 16 long walks take a
+// few thousand.
 
 const NO_QUERY: u32 = 0xffffffffu;
 const LANE_QUERIES: u32 = 16u;

@@ -7,12 +7,17 @@ mod common;
 
 use common::*;
 use maamplan::collide::brute::BruteBackend;
+use maamplan::collide::brute::{tri_tri_distance64, winding_number};
 use maamplan::collide::cpu::CpuBackend;
+use maamplan::collide::cpu::{
+    classify, hull_clear, node_hull_clear, slab_clear, sphere_margin, to_head, triangle_margin,
+    SceneView,
+};
 use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
-use maamplan::scene::{GpuQuery, HeadConfig, Query, Scene, SceneConfig};
+use maamplan::scene::{GpuPartNode, GpuQuery, GpuTriangle, HeadConfig, Query, Scene, SceneConfig};
 
 fn cfg(clearance: f32) -> SceneConfig {
     SceneConfig {
@@ -131,7 +136,7 @@ fn random_scenes_sloped_margins() {
 /// gpu backend's split into passes decides what the one walk decides.
 #[test]
 fn the_kernel_mirrors_together_give_the_evaluators_verdicts() {
-    use maamplan::collide::cpu::{exact, query_hits, traverse, SceneView};
+    use maamplan::collide::cpu::{exact, query_hits, traverse};
     for seed in 40..43u64 {
         let mut r = rng(seed);
         let scene = star_scene(&mut r, 11, 3.0, [-0.8, 0.6]);
@@ -407,6 +412,51 @@ fn a_hits_witness_counts_only_where_it_exists() {
     assert_eq!(alone, truth);
 }
 
+/// The nodes of the part tree a walk for `q` meets as the backends walk
+/// it: each node that exists at the cutoff and whose sphere the grid
+/// cannot settle goes to `visit` (with its centre in the head frame and
+/// the margin it must keep), which answers whether to walk on below it.
+fn walk_undecided(
+    scene: &Scene,
+    q: &GpuQuery,
+    mut visit: impl FnMut(usize, &GpuPartNode, [f32; 3], f32) -> bool,
+) {
+    let view = SceneView::new(scene);
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let node = scene.part_nodes[i];
+        if node.min_stamp >= q.cutoff {
+            continue;
+        }
+        let c = to_head(q, node.center);
+        let m = sphere_margin(q, c, node.radius);
+        if classify(view.head, view.grid, c, node.radius, m) != 0 {
+            continue;
+        }
+        if visit(i, &node, c, m) && node.leaf_range().is_none() {
+            stack.extend([node.packed as usize, node.packed as usize + 1]);
+        }
+    }
+}
+
+/// The triangles below node `i` that exist at `cutoff`.
+fn existing_below(scene: &Scene, i: usize, cutoff: u32) -> Vec<GpuTriangle> {
+    let mut out = Vec::new();
+    let mut below = vec![i];
+    while let Some(j) = below.pop() {
+        let n = scene.part_nodes[j];
+        match n.leaf_range() {
+            Some((first, count)) => out.extend(
+                scene.part_tris[first as usize..(first + count) as usize]
+                    .iter()
+                    .filter(|t| t.stamp < cutoff),
+            ),
+            None => below.extend([n.packed as usize, n.packed as usize + 1]),
+        }
+    }
+    out
+}
+
 #[test]
 fn slabs_skip_only_material_clear_of_the_head() {
     // simple_curve's waypoints at 0.5 mm: walk the tree as the backends
@@ -415,87 +465,31 @@ fn slabs_skip_only_material_clear_of_the_head() {
     // triangle below it keeps more than the margin from every head
     // triangle. The slabs must also be what settles many such nodes:
     // flat layers under the nozzle are what spheres are bad at.
-    use maamplan::collide::brute::tri_tri_distance64;
-    use maamplan::collide::cpu::{classify, slab_clear, sphere_margin, to_head, SceneView};
     let (_, scene) = simple_curve();
     let view = SceneView::new(&scene);
     // Half a millimetre: the bead just printed, 0.3 mm under the lifted
     // head, is within it, so a slab that skipped too much would be seen.
     let margin = 0.5f32;
-    let head: Vec<[[f64; 3]; 3]> = scene
-        .head
-        .triangles
-        .iter()
-        .map(|t| [t.v0, t.v1, t.v2].map(|v| v.map(|x| x as f64)))
-        .collect();
-    // Boxes farther apart than the margin hold no closer pair.
-    let bounds = |t: &[[f64; 3]; 3]| -> [[f64; 2]; 3] {
-        std::array::from_fn(|k| {
-            let v = [t[0][k], t[1][k], t[2][k]];
-            [
-                v.iter().copied().fold(f64::INFINITY, f64::min),
-                v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-            ]
-        })
-    };
-    let head_boxes: Vec<_> = head.iter().map(bounds).collect();
-    let apart = |a: &[[f64; 2]; 3], b: &[[f64; 2]; 3]| {
-        (0..3).any(|k| a[k][0] - b[k][1] > margin as f64 || b[k][0] - a[k][1] > margin as f64)
-    };
+    let head = f64_head(&scene);
     let (mut settled, mut checked) = (0usize, 0usize);
     for base in scene.waypoint_queries.iter().step_by(211) {
         let q = Query { margin, ..*base }.to_gpu();
-        let to_head64 = |p: [f32; 3]| -> [f64; 3] {
-            let d: [f64; 3] = std::array::from_fn(|k| p[k] as f64 - q.rows[k][3] as f64);
-            std::array::from_fn(|i| (0..3).map(|j| q.rows[i][j] as f64 * d[j]).sum())
-        };
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let node = scene.part_nodes[i];
-            if node.min_stamp >= q.cutoff {
-                continue;
+        walk_undecided(&scene, &q, |i, node, _, m| {
+            if !slab_clear(view.head, view.grid, &q, node, m) {
+                return true;
             }
-            let c = to_head(&q, node.center);
-            let m = sphere_margin(&q, c, node.radius);
-            if classify(view.head, view.grid, c, node.radius, m) != 0 {
-                continue;
+            settled += 1;
+            for t in existing_below(&scene, i, q.cutoff) {
+                let tri = [t.v0, t.v1, t.v2].map(|v| to_head64(&q, v));
+                let d = head_distance64(&tri, &head, margin as f64);
+                assert!(
+                    d > margin as f64,
+                    "node {i}: a triangle {d} mm from the head"
+                );
+                checked += 1;
             }
-            if slab_clear(view.head, view.grid, &q, &node, m) {
-                settled += 1;
-                // Every node below, every existing triangle.
-                let mut below = vec![i];
-                while let Some(j) = below.pop() {
-                    let n = scene.part_nodes[j];
-                    match n.leaf_range() {
-                        Some((first, count)) => {
-                            for t in &scene.part_tris[first as usize..(first + count) as usize] {
-                                if t.stamp >= q.cutoff {
-                                    continue;
-                                }
-                                let tri = [t.v0, t.v1, t.v2].map(to_head64);
-                                let b = bounds(&tri);
-                                for (h, hb) in head.iter().zip(&head_boxes) {
-                                    if apart(&b, hb) {
-                                        continue;
-                                    }
-                                    let d = tri_tri_distance64(&tri, h);
-                                    assert!(
-                                        d > margin as f64,
-                                        "node {i}: a triangle {d} mm from the head"
-                                    );
-                                }
-                                checked += 1;
-                            }
-                        }
-                        None => below.extend([n.packed as usize, n.packed as usize + 1]),
-                    }
-                }
-                continue;
-            }
-            if node.leaf_range().is_none() {
-                stack.extend([node.packed as usize, node.packed as usize + 1]);
-            }
-        }
+            false
+        });
     }
     assert!(
         settled > 1_000 && checked > 100_000,
@@ -503,8 +497,6 @@ fn slabs_skip_only_material_clear_of_the_head() {
     );
 }
 
-/// simple_curve with every nozzle tilted 50° about x: the head's flank
-/// lies a few tenths of a millimetre over the layers.
 /// Waypoint query `base` (the `k`-th asked) at one of the margins and
 /// slopes the planner's proofs ask, in turn.
 fn as_the_planner_asks(k: usize, base: &Query) -> GpuQuery {
@@ -533,6 +525,8 @@ fn asked_of(q: &GpuQuery, tri: &[[f64; 3]; 3]) -> f64 {
     q.margin as f64 + q.slope as f64 * reach
 }
 
+/// simple_curve with every nozzle tilted 50° about x: the head's flank
+/// lies a few tenths of a millimetre over the layers.
 fn tilted_simple_curve() -> maamplan::job::Job {
     simple_curve_job_tilted(Some(50.0))
 }
@@ -569,7 +563,6 @@ fn head_distance64(
     (head, boxes): &(Vec<[[f64; 3]; 3]>, Boxes),
     within: f64,
 ) -> f64 {
-    use maamplan::collide::brute::tri_tri_distance64;
     let tb = bounds64(tri);
     let mut near = f64::INFINITY;
     for (h, hb) in head.iter().zip(boxes) {
@@ -589,10 +582,6 @@ fn node_hull_planes_settle_only_material_clear_of_the_head() {
     // must find every existing triangle below it farther than its margin
     // from every head triangle. And the test must be what settles many
     // such nodes: flat layers beside the flank.
-    use maamplan::collide::brute::winding_number;
-    use maamplan::collide::cpu::{
-        classify, node_hull_clear, slab_clear, sphere_margin, to_head, SceneView,
-    };
     let job = tilted_simple_curve();
     let scene = &job.scene;
     let view = SceneView::new(scene);
@@ -600,50 +589,27 @@ fn node_hull_planes_settle_only_material_clear_of_the_head() {
     let (mut settled, mut checked) = (0usize, 0usize);
     for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(1499) {
         let q = as_the_planner_asks(k, base);
-        let to_head64 = |p| to_head64(&q, p);
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let node = scene.part_nodes[i];
-            if node.min_stamp >= q.cutoff {
-                continue;
+        walk_undecided(scene, &q, |i, node, c, m| {
+            if slab_clear(view.head, view.grid, &q, node, m) {
+                return false;
             }
-            let c = to_head(&q, node.center);
-            let m = sphere_margin(&q, c, node.radius);
-            if classify(view.head, view.grid, c, node.radius, m) != 0
-                || slab_clear(view.head, view.grid, &q, &node, m)
-            {
-                continue;
+            if !node_hull_clear(view.head, view.grid, &q, node, c, m) {
+                return true;
             }
-            if node_hull_clear(view.head, view.grid, &q, &node, c, m) {
-                settled += 1;
-                let mut below = vec![i];
-                while let Some(j) = below.pop() {
-                    let n = scene.part_nodes[j];
-                    let Some((first, count)) = n.leaf_range() else {
-                        below.extend([n.packed as usize, n.packed as usize + 1]);
-                        continue;
-                    };
-                    for t in &scene.part_tris[first as usize..(first + count) as usize] {
-                        if t.stamp >= q.cutoff {
-                            continue;
-                        }
-                        let tri = [t.v0, t.v1, t.v2].map(to_head64);
-                        let need = asked_of(&q, &tri);
-                        let near = head_distance64(&tri, &head, need);
-                        let a = [t.v0, t.v1, t.v2].map(|v| to_head(&q, v))[0];
-                        assert!(
-                            near > need && winding_number(&scene.head.mesh, a) < 0.5,
-                            "pose {k}, node {i}: a triangle {near} mm from the head settled at {need}"
-                        );
-                        checked += 1;
-                    }
-                }
-                continue;
+            settled += 1;
+            for t in existing_below(scene, i, q.cutoff) {
+                let tri = [t.v0, t.v1, t.v2].map(|v| to_head64(&q, v));
+                let need = asked_of(&q, &tri);
+                let near = head_distance64(&tri, &head, need);
+                let a = to_head(&q, t.v0);
+                assert!(
+                    near > need && winding_number(&scene.head.mesh, a) < 0.5,
+                    "pose {k}, node {i}: a triangle {near} mm from the head settled at {need}"
+                );
+                checked += 1;
             }
-            if node.leaf_range().is_none() {
-                stack.extend([node.packed as usize, node.packed as usize + 1]);
-            }
-        }
+            false
+        });
     }
     assert!(
         settled > 2_000 && checked > 100_000,
@@ -661,10 +627,6 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
     // plane can, brute force in f64 must find it farther than the margin
     // from every head triangle. And the planes must settle nearly every
     // such triangle that brute force finds clear with room to spare.
-    use maamplan::collide::brute::winding_number;
-    use maamplan::collide::cpu::{
-        classify, hull_clear, slab_clear, sphere_margin, to_head, triangle_margin, SceneView,
-    };
     let job = tilted_simple_curve();
     let scene = &job.scene;
     let view = SceneView::new(scene);
@@ -672,28 +634,14 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
     let (mut planes, mut well_clear) = (0usize, 0usize);
     for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(211) {
         let q = as_the_planner_asks(k, base);
-        let to_head64 = |p| to_head64(&q, p);
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let node = scene.part_nodes[i];
-            if node.min_stamp >= q.cutoff {
-                continue;
+        walk_undecided(scene, &q, |i, node, _, m| {
+            if slab_clear(view.head, view.grid, &q, node, m) {
+                return false;
             }
-            let c = to_head(&q, node.center);
-            let m = sphere_margin(&q, c, node.radius);
-            if classify(view.head, view.grid, c, node.radius, m) != 0
-                || slab_clear(view.head, view.grid, &q, &node, m)
-            {
-                continue;
+            if node.leaf_range().is_none() {
+                return true;
             }
-            let Some((first, count)) = node.leaf_range() else {
-                stack.extend([node.packed as usize, node.packed as usize + 1]);
-                continue;
-            };
-            for t in &scene.part_tris[first as usize..(first + count) as usize] {
-                if t.stamp >= q.cutoff {
-                    continue;
-                }
+            for t in existing_below(scene, i, q.cutoff) {
                 let [a, b, c] = [t.v0, t.v1, t.v2].map(|v| to_head(&q, v));
                 let mid: [f32; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) * (1.0 / 3.0));
                 let r = [a, b, c]
@@ -708,7 +656,7 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
                 // Brute force in f64: what the query asks of this
                 // triangle, and whether every head triangle keeps it (and
                 // keeps it with 0.1 mm to spare).
-                let tri = [t.v0, t.v1, t.v2].map(to_head64);
+                let tri = [t.v0, t.v1, t.v2].map(|v| to_head64(&q, v));
                 let need = asked_of(&q, &tri);
                 let spare = need + 0.1;
                 let near = head_distance64(&tri, &head, spare);
@@ -725,7 +673,8 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
                     planes += settled as usize;
                 }
             }
-        }
+            false
+        });
     }
     assert!(
         well_clear > 20_000 && planes * 100 >= well_clear * 99,

@@ -1,7 +1,8 @@
 // Bindings and per-query helpers shared by the collide_* kernels (one
-// pipeline layout serves them all; src/collide/gpu/collide.rs builds it).
-// Mirrors src/collide/cpu.rs function for function.
+// pipeline layout serves them all; src/collide/gpu/resources.rs builds it).
+// Mirrored function for function by src/collide/cpu/common.rs.
 
+// The batch's scalars. Keep in sync with src/collide/gpu/wire.rs (GpuParams).
 struct Params {
     // Elements per part-node / part-triangle binding (scenes larger than one
     // storage binding are split across several).
@@ -18,7 +19,8 @@ struct Params {
     pad2: u32,
 }
 
-// The per-query result word (src/scene/gpu_types.rs): bit 0 the query
+// The per-query result word. Keep in sync with src/collide/gpu/wire.rs
+// (RESULT_*): bit 0 the query
 // collides, bit 1 some of its candidates found the list full, the bits
 // above RESULT_STORED_SHIFT how many of its candidates (in walk order)
 // have been handed to collide_exact.
@@ -46,10 +48,9 @@ struct Control {
 // value (`grid_at`) or a support map's pair of halves (`grid_word`).
 // Words, not f32: a pair of halves is no f32 a driver must keep bit for
 // bit. On lavapipe every read with a per-query index is a loop over the
-// SIMD lanes; a plane read as one vec4 instead of four floats, and
-// classify reading one grid instead of two, took 11 % of the walk's
-// instructions on simple_curve's bench mix, and the support map's two
-// sides in one word 3.7 % more.
+// SIMD lanes, so reads are few: a plane is one vec4 read, not four
+// floats; classify reads one grid, not two; the support map's two sides
+// are one word.
 @group(0) @binding(7) var<storage, read> grid: array<vec4<u32>>;
 @group(0) @binding(8) var<storage, read> part_nodes0: array<PartNode>;
 @group(0) @binding(9) var<storage, read> part_nodes1: array<PartNode>;
@@ -62,22 +63,23 @@ struct Control {
 @group(0) @binding(15) var<storage, read_write> control: Control;
 
 const STACK_SIZE: u32 = 64u;
-// Cells per cube-map face side of the head's support map (scene/slab.rs).
+// Cells per cube-map face side of the head's support map (src/scene/slab.rs
+// SUPPORT_SIDE).
 const SUPPORT_SIDE: u32 = 32u;
 // Whether tri_crosses_head has the margin's distance tests at all. The host
 // builds collide_exact twice and runs the variant without them on batches
 // whose queries all have margin 0: lavapipe evaluates the body of a branch
-// even when no invocation takes it, which made margin-0 batches cost 4×
-// their former instructions. With the tests compiled in, a query with
-// margin 0 still skips them, as cpu.rs does.
+// even when no invocation takes it, so margin-0 batches would pay for the
+// distance tests they never use. With the tests compiled in, a query with
+// margin 0 still skips them, as common.rs does.
 override MARGIN_TESTS: bool = true;
 const WORKGROUP: u32 = 64u;
 
 // How many of the part node and part triangle bindings the scene fills
 // (1..=2 and 1..=4; the host builds the pipelines for its scene). Reads
 // past those are compiled out: lavapipe, which runs every branch of a
-// SIMD lane group, otherwise fetched a triangle four times and a node
-// twice (13 % of the walk's instructions on simple_curve's bench mix).
+// SIMD lane group, would otherwise fetch a triangle four times and a node
+// twice.
 override NODE_BINDINGS: u32 = 2u;
 override TRI_BINDINGS: u32 = 4u;
 
@@ -104,7 +106,7 @@ fn part_tri(i: u32) -> Triangle {
     return part_tris3[i - 3u * n];
 }
 
-// The head grid's value at i (an index into it as f32s, as in cpu.rs).
+// The head grid's value at i (an index into it as f32s, as in common.rs).
 fn grid_at(i: u32) -> f32 {
     return bitcast<f32>(grid[i >> 2u][i & 3u]);
 }
@@ -128,7 +130,7 @@ fn to_head(q: Query, p: vec3<f32>) -> vec3<f32> {
     );
 }
 
-// What the head's grids say at c (cpu.rs `grid_sample`): the fine grid's
+// What the head's grids say at c (common.rs `grid_sample`): the fine grid's
 // signed distance where it holds c; beyond it the far grid's unsigned one
 // (everything there is outside the head); beyond that the distance to the
 // head's box (`cell.w == 0`). The grid is chosen first and read once.
@@ -156,14 +158,14 @@ fn grid_sample(c: vec3<f32>) -> GridSample {
     );
 }
 
-// cpu.rs `classify`: 1 = the sphere (c, r) wholly outside the head and
+// common.rs `classify`: 1 = the sphere (c, r) wholly outside the head and
 // more than `margin` from its surface, -1 = wholly inside, 0 = cannot
 // tell.
 fn classify(c: vec3<f32>, r: f32, margin: f32) -> i32 {
     return classify_sample(grid_sample(c), c, r, margin);
 }
 
-// cpu.rs `classify_sample`: `classify` from the grid sample at c. In the
+// common.rs `classify_sample`: `classify` from the grid sample at c. In the
 // far grid v >= 0, so the fine grid's formula serves it too.
 fn classify_sample(g: GridSample, c: vec3<f32>, r: f32, margin: f32) -> i32 {
     if g.cell.w == 0u {
@@ -183,7 +185,8 @@ fn classify_sample(g: GridSample, c: vec3<f32>, r: f32, margin: f32) -> i32 {
     return 1;
 }
 
-// slab.rs `oct_decode`: the unit vector of an octahedral code.
+// src/scene/slab.rs `oct_decode` (re-exported by common.rs): the unit
+// vector of an octahedral code.
 fn oct_decode(p: vec2<f32>) -> vec3<f32> {
     var v = vec3<f32>(p.x, p.y, 1.0 - abs(p.x) - abs(p.y));
     let t = max(-v.z, 0.0);
@@ -193,7 +196,7 @@ fn oct_decode(p: vec2<f32>) -> vec3<f32> {
     return vec3<f32>(v.x * inv, v.y * inv, v.z * inv);
 }
 
-// slab.rs `support_cell`: the support map's cell of direction u.
+// common.rs `support_cell`: the support map's cell of direction u.
 fn support_cell(u: vec3<f32>) -> u32 {
     let a = abs(u);
     var k = 2u;
@@ -216,13 +219,13 @@ fn support_cell(u: vec3<f32>) -> u32 {
     return (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s;
 }
 
-// cpu.rs `slab_clear`: the node's slab wholly on one side of the head,
+// common.rs `slab_clear`: the node's slab wholly on one side of the head,
 // farther than margin.
 fn slab_clear(q: Query, node: PartNode, margin: f32) -> bool {
     return slab_gap(q, node) - head.grid_slack > margin;
 }
 
-// cpu.rs `slab_gap`: how far the node's slab lies from the head along its
+// common.rs `slab_gap`: how far the node's slab lies from the head along its
 // normal (-1 for slabs thicker than half the radius).
 fn slab_gap(q: Query, node: PartNode) -> f32 {
     let range = unpack2x16snorm(node.slab_range);
@@ -245,13 +248,13 @@ fn slab_gap(q: Query, node: PartNode) -> f32 {
     return max(-support.y - hi, lo - support.x);
 }
 
-// cpu.rs `node_hull_clear`: the node farther than margin from the head,
+// common.rs `node_hull_clear`: the node farther than margin from the head,
 // beyond the hull plane of the cell holding its centre c (head frame).
 fn node_hull_clear(q: Query, node: PartNode, c: vec3<f32>, margin: f32) -> bool {
     return node_hull_gap(q, node, c) - head.grid_slack > margin;
 }
 
-// cpu.rs `node_hull_gap`: the least n·x − h over the node's sphere within
+// common.rs `node_hull_gap`: the least n·x − h over the node's sphere within
 // its slab, for the hull plane (n, h) of the cell holding c.
 fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
     let k = hull_plane_at(c);
@@ -279,7 +282,7 @@ fn node_hull_gap(q: Query, node: PartNode, c: vec3<f32>) -> f32 {
 // `NO_PLANE`, a cell's own "no plane").
 const OUTSIDE_PLANES: u32 = 0xffffffffu;
 
-// cpu.rs `hull_plane_at`: where the hull plane (n, h) of the cell holding p
+// common.rs `hull_plane_at`: where the hull plane (n, h) of the cell holding p
 // (head frame) starts in the grid buffer, or OUTSIDE_PLANES outside the planes'
 // grid.
 fn hull_plane_at(p: vec3<f32>) -> u32 {
@@ -290,7 +293,7 @@ fn hull_plane_at(p: vec3<f32>) -> u32 {
     return head.plane_offset + 4u * ((cell.z * head.plane_dims.y + cell.y) * head.plane_dims.x + cell.x);
 }
 
-// cpu.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside
+// common.rs `grid_cell`: the cell holding c (xyz) and w = 1, or w = 0 outside
 // the grid.
 fn grid_cell(c: vec3<f32>, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) -> vec4<u32> {
     let fx = (c.x - origin.x) * inv_cell;
@@ -302,7 +305,7 @@ fn grid_cell(c: vec3<f32>, origin: vec3<f32>, inv_cell: f32, dims: vec3<u32>) ->
     return vec4<u32>(min(u32(fx), dims.x - 1u), min(u32(fy), dims.y - 1u), min(u32(fz), dims.z - 1u), 1u);
 }
 
-// cpu.rs `clears_centre`.
+// common.rs `clears_centre`.
 fn clears_centre(c: vec3<f32>, origin: vec3<f32>, cell: f32, ijk: vec3<u32>, slack: f32) -> bool {
     if slack <= 0.0 {
         return false;
@@ -314,7 +317,7 @@ fn clears_centre(c: vec3<f32>, origin: vec3<f32>, cell: f32, ijk: vec3<u32>, sla
 }
 
 // Möller against the head, or, with a positive margin, closer than it:
-// one walk with boxes grown by tol + margin (cpu.rs `tri_crosses_head`).
+// one walk with boxes grown by tol + margin (common.rs `tri_crosses_head`).
 fn tri_crosses_head(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
     let tol = head.tol;
     let grow = margin + tol;
@@ -401,7 +404,7 @@ fn point_in_head(p: vec3<f32>) -> bool {
     return (crossings & 1u) == 1u;
 }
 
-// cpu.rs `sphere_margin`: the margin everything inside the sphere (c, r)
+// common.rs `sphere_margin`: the margin everything inside the sphere (c, r)
 // (head frame) must at least keep.
 fn sphere_margin(q: Query, c: vec3<f32>, r: f32) -> f32 {
     if q.slope > 0.0 {
@@ -410,7 +413,7 @@ fn sphere_margin(q: Query, c: vec3<f32>, r: f32) -> f32 {
     return q.margin;
 }
 
-// cpu.rs `triangle_margin`: the margin the triangle (head frame) must keep.
+// common.rs `triangle_margin`: the margin the triangle (head frame) must keep.
 fn triangle_margin(q: Query, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
     if q.slope > 0.0 {
         return q.margin + q.slope * max(max(len3(a), len3(b)), len3(c));
@@ -420,8 +423,8 @@ fn triangle_margin(q: Query, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>) -> f32 {
 
 // The triangle in the head frame, the margin it must keep and its
 // classification by bounding sphere, then centroid, then hull plane (1
-// outside, -1 colliding, 0 undecided); the first half of cpu.rs
-// `tri_hits`. A centroid the grid shows inside the head is a point of
+// outside, -1 colliding, 0 undecided): common.rs `head_tri`, the first
+// half of frontier.rs `tri_hits`. A centroid the grid shows inside the head is a point of
 // the triangle inside it: the triangle collides (it crosses the surface
 // or lies inside), and the exact tests would find the same.
 struct HeadTri {
@@ -451,7 +454,7 @@ fn head_tri(q: Query, tri: Triangle) -> HeadTri {
     return HeadTri(a, b, c, margin, cls);
 }
 
-// cpu.rs `hull_clear`: the triangle farther than margin from the head,
+// common.rs `hull_clear`: the triangle farther than margin from the head,
 // beyond the hull plane of the cell holding its centroid m.
 fn hull_clear(m: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {
     let k = hull_plane_at(m);
@@ -464,7 +467,7 @@ fn hull_clear(m: vec3<f32>, a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f3
     return near - plane.w - head.grid_slack > margin;
 }
 
-// The exact half of cpu.rs `tri_hits` (`tri_hits_exact`), for an undecided
+// common.rs `tri_hits_exact` (the exact half of frontier.rs `tri_hits`), for an undecided
 // triangle: crossing or within the margin, then containment. The two walks
 // of the head BVH run one after another, never nested.
 fn tri_hits_exact(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, margin: f32) -> bool {

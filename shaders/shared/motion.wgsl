@@ -1,7 +1,7 @@
 // Bindings and kinematics of the motion kernels (collide_expand,
 // collide_reduce), which share one pipeline layout of their own
-// (src/collide/gpu/collide.rs). Mirrors src/collide/cpu/expand.rs, which
-// follows src/kinematics/mod.rs in f32.
+// (src/collide/gpu/resources.rs). Mirrored by src/collide/cpu/expand.rs,
+// which follows src/kinematics/mod.rs in f32.
 
 @group(0) @binding(0) var<uniform> motion: Motion;
 @group(0) @binding(1) var<storage, read> moves: array<Move>;

@@ -1,5 +1,7 @@
-// GPU structs shared by every kernel. Keep in sync with src/scene/gpu_types.rs
-// (tests/shaders.rs checks sizes with naga's layouter).
+// GPU structs shared by every kernel. Keep Triangle, Node, PartNode, Query
+// and HeadParams in sync with src/scene/gpu_types.rs, Move and Motion with
+// src/collide/gpu/wire.rs (tests/shaders.rs checks sizes with naga's
+// layouter).
 
 struct Triangle {
     v0: vec3<f32>,
@@ -62,7 +64,7 @@ struct HeadParams {
     _pad: u32,
 }
 
-// A machine move the motion kernels sample (src/scene/gpu_types.rs GpuMove).
+// A machine move the motion kernels sample (src/collide/gpu/wire.rs GpuMove).
 struct Move {
     start: vec4<f32>,
     end: vec4<f32>,
@@ -76,7 +78,7 @@ struct Move {
     pad: u32,
 }
 
-// The machine and the batch's move count (GpuMotion).
+// The machine and the batch's move count (src/collide/gpu/wire.rs GpuMotion).
 struct Motion {
     configuration: u32,
     rotary: u32,

@@ -21,6 +21,7 @@ use super::{check_finite, Backend, CollideError, Query};
 use crate::geometry::tri_tri::tri_tri_overlap;
 use crate::geometry::{Aabb, Mesh, Pose, V3};
 use crate::scene::Scene;
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// A point or vector in `f64`.
@@ -194,38 +195,19 @@ fn to64(v: V3) -> D3 {
 
 /// Part frame → head frame in `f64`: `Rᵀ (p − tip)`.
 fn to_head64(pose: &Pose, p: V3) -> D3 {
-    let d: D3 = std::array::from_fn(|k| p[k] as f64 - pose.tip[k] as f64);
-    std::array::from_fn(|i| dot64(to64(pose.cols[i]), d))
+    let d = DVec3::from(std::array::from_fn(|k| p[k] as f64 - pose.tip[k] as f64));
+    std::array::from_fn(|i| DVec3::from(to64(pose.cols[i])).dot(d))
 }
 
-fn sub64(a: D3, b: D3) -> D3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot64(a: D3, b: D3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross64(a: D3, b: D3) -> D3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn lerp64(a: D3, b: D3, s: f64) -> D3 {
-    std::array::from_fn(|k| a[k] + (b[k] - a[k]) * s)
-}
-
-fn dist64(a: D3, b: D3) -> f64 {
-    let d = sub64(a, b);
-    dot64(d, d).sqrt()
+/// The point at fraction `s` from `a` to `b`.
+fn lerp64(a: DVec3, b: DVec3, s: f64) -> DVec3 {
+    a + (b - a) * s
 }
 
 /// Distance between two triangles in `f64` (0 when they touch or cross),
 /// by vertex projections, clamped segment parameters and edge piercings.
 pub fn tri_tri_distance64(s: &[D3; 3], t: &[D3; 3]) -> f64 {
+    let (s, t) = (&s.map(DVec3::from), &t.map(DVec3::from));
     let mut best = f64::INFINITY;
     for (x, y) in [(s, t), (t, s)] {
         for i in 0..3 {
@@ -241,12 +223,7 @@ pub fn tri_tri_distance64(s: &[D3; 3], t: &[D3; 3]) -> f64 {
     }
     for i in 0..3 {
         for j in 0..3 {
-            best = best.min(segment_distance64(
-                s[i],
-                s[(i + 1) % 3],
-                t[j],
-                t[(j + 1) % 3],
-            ));
+            best = best.min(segment_distance(s[i], s[(i + 1) % 3], t[j], t[(j + 1) % 3]));
         }
     }
     best
@@ -254,25 +231,25 @@ pub fn tri_tri_distance64(s: &[D3; 3], t: &[D3; 3]) -> f64 {
 
 /// Distance from `p` to the plane of `t` when its projection lies inside
 /// `t` (barycentric signs), else `None` (an edge is then closer).
-fn face_distance(p: D3, t: &[D3; 3]) -> Option<f64> {
-    let n = cross64(sub64(t[1], t[0]), sub64(t[2], t[0]));
-    let nn = dot64(n, n);
+fn face_distance(p: DVec3, t: &[DVec3; 3]) -> Option<f64> {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let nn = n.dot(n);
     if nn == 0.0 {
         return None;
     }
     let inside = (0..3).all(|k| {
-        let e = cross64(sub64(t[(k + 1) % 3], t[k]), sub64(p, t[k]));
-        dot64(e, n) >= 0.0
+        let e = (t[(k + 1) % 3] - t[k]).cross(p - t[k]);
+        e.dot(n) >= 0.0
     });
-    inside.then(|| dot64(n, sub64(p, t[0])).abs() / nn.sqrt())
+    inside.then(|| n.dot(p - t[0]).abs() / nn.sqrt())
 }
 
 /// 0 when segment `(a, b)` strictly crosses the plane of `t` at a point
 /// inside `t`, else `None`.
-fn piercing(a: D3, b: D3, t: &[D3; 3]) -> Option<f64> {
-    let n = cross64(sub64(t[1], t[0]), sub64(t[2], t[0]));
-    let sa = dot64(n, sub64(a, t[0]));
-    let sb = dot64(n, sub64(b, t[0]));
+fn piercing(a: DVec3, b: DVec3, t: &[DVec3; 3]) -> Option<f64> {
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let sa = n.dot(a - t[0]);
+    let sb = n.dot(b - t[0]);
     if !((sa > 0.0 && sb < 0.0) || (sa < 0.0 && sb > 0.0)) {
         return None;
     }
@@ -284,11 +261,14 @@ fn piercing(a: D3, b: D3, t: &[D3; 3]) -> Option<f64> {
 /// the four boundary minima (each endpoint against the other segment, its
 /// parameter clamped).
 pub fn segment_distance64(p0: D3, p1: D3, q0: D3, q1: D3) -> f64 {
-    let u = sub64(p1, p0);
-    let v = sub64(q1, q0);
-    let w = sub64(p0, q0);
-    let (a, b, c) = (dot64(u, u), dot64(u, v), dot64(v, v));
-    let (d, e) = (dot64(u, w), dot64(v, w));
+    segment_distance(p0.into(), p1.into(), q0.into(), q1.into())
+}
+
+/// [`segment_distance64`] of glam vectors.
+fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
+    let (u, v, w) = (p1 - p0, q1 - q0, p0 - q0);
+    let (a, b, c) = (u.dot(u), u.dot(v), v.dot(v));
+    let (d, e) = (u.dot(w), v.dot(w));
     let mut best = point_segment64(p0, q0, q1)
         .min(point_segment64(p1, q0, q1))
         .min(point_segment64(q0, p0, p1))
@@ -298,41 +278,35 @@ pub fn segment_distance64(p0: D3, p1: D3, q0: D3, q1: D3) -> f64 {
         let s = (b * e - c * d) / det;
         let t = (a * e - b * d) / det;
         if (0.0..=1.0).contains(&s) && (0.0..=1.0).contains(&t) {
-            best = best.min(dist64(lerp64(p0, p1, s), lerp64(q0, q1, t)));
+            best = best.min(lerp64(p0, p1, s).distance(lerp64(q0, q1, t)));
         }
     }
     best
 }
 
 /// Distance from `p` to segment `(a, b)`, the parameter clamped to [0, 1].
-fn point_segment64(p: D3, a: D3, b: D3) -> f64 {
-    let ab = sub64(b, a);
-    let l = dot64(ab, ab);
+fn point_segment64(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let l = ab.dot(ab);
     let s = if l > 0.0 {
-        (dot64(sub64(p, a), ab) / l).clamp(0.0, 1.0)
+        ((p - a).dot(ab) / l).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    dist64(p, lerp64(a, b, s))
+    p.distance(lerp64(a, b, s))
 }
 
 /// Generalised winding number of a closed mesh at `p` (≈1 inside, ≈0
 /// outside), by summing the signed solid angles of its triangles (Van
 /// Oosterom & Strackee).
 pub fn winding_number(mesh: &Mesh, p: V3) -> f64 {
-    let p = p.map(|c| c as f64);
+    let p = DVec3::from(to64(p));
     let mut total = 0.0;
     for i in 0..mesh.triangles.len() {
-        let [a, b, c] = mesh
-            .corners(i)
-            .map(|v| [v[0] as f64 - p[0], v[1] as f64 - p[1], v[2] as f64 - p[2]]);
-        let la = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-        let lb = (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]).sqrt();
-        let lc = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        let det = a[0] * (b[1] * c[2] - b[2] * c[1]) - a[1] * (b[0] * c[2] - b[2] * c[0])
-            + a[2] * (b[0] * c[1] - b[1] * c[0]);
-        let dot = |u: [f64; 3], v: [f64; 3]| u[0] * v[0] + u[1] * v[1] + u[2] * v[2];
-        let den = la * lb * lc + dot(a, b) * lc + dot(b, c) * la + dot(c, a) * lb;
+        let [a, b, c] = mesh.corners(i).map(|v| DVec3::from(to64(v)) - p);
+        let (la, lb, lc) = (a.length(), b.length(), c.length());
+        let det = a.dot(b.cross(c));
+        let den = la * lb * lc + a.dot(b) * lc + b.dot(c) * la + c.dot(a) * lb;
         total += 2.0 * det.atan2(den);
     }
     total / (4.0 * std::f64::consts::PI)

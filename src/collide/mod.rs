@@ -7,7 +7,6 @@
 
 pub mod brute;
 pub mod cpu;
-mod frontier;
 pub mod gpu;
 pub mod moves;
 pub mod order;

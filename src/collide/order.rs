@@ -10,18 +10,15 @@
 //! backend walks them in that order and returns the verdicts in the
 //! caller's.
 //!
-//! Measured on simple_curve's bench mix (20,000 poses, groups of 8, the
-//! cpu mirror's walk lengths): the lanes of a group walk on average 63
-//! nodes, the group as long as its longest, 110 with 16 × 16 axis cells
-//! (8 × 8: 123; 4 × 4: 164; 32 × 32: 110; 64 × 64: 118). On lavapipe the
-//! gpu's bench went from 0.25 to 0.30 of the cpu's poses per second.
+//! The axis map's cells ([`AXIS_CELLS`]) are as coarse as still groups
+//! alike walks: finer maps scatter neighbours, coarser ones mix
+//! orientations (BENCHMARKS.md).
 //!
 //! The gpu backend orders on software adapters only
-//! ([`crate::collide::gpu::GpuOptions::coherent`]): on an NVIDIA H100 the
-//! device waited about as long for queries as given (its scheduler hides
-//! a divergent lane behind others), and ordering cost the host more than
-//! that: 20,000 poses ran at 8.0–9.0 M poses/s as given, 5.0–5.5 M
-//! ordered (BENCHMARKS.md, "On a real GPU").
+//! ([`crate::collide::gpu::GpuOptions::coherent`]): a hardware GPU's
+//! scheduler hides a divergent lane behind others, so there ordering
+//! costs the host more than it saves the device (BENCHMARKS.md, "On a
+//! real GPU").
 
 use super::Query;
 use rayon::prelude::*;
@@ -37,10 +34,10 @@ const MORTON_BITS: u32 = 10;
 /// by the tip's Morton code, then by index (deterministic).
 pub fn coherent_order(queries: &[Query]) -> Vec<u32> {
     let (lo, scale) = tip_frame(queries);
-    // Keys and sort on all cores: on one core of the CI-class machine
-    // ordering 160,000 poses took 13 ms, a third of the 37 ms an H100's
-    // bench run of them took. The (key, index) pairs are distinct, so the
-    // order is the same however the sort splits its work.
+    // Keys and sort on all cores: on one core ordering a large batch
+    // costs a fair part of what a hardware GPU takes to walk it. The
+    // (key, index) pairs are distinct, so the order is the same however
+    // the sort splits its work.
     let mut keyed: Vec<(u64, u32)> = queries
         .par_iter()
         .enumerate()

@@ -48,6 +48,18 @@ thread_local! {
     pub static FUSED: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
+/// A xorshift generator of uniform numbers in `[0, 1)` from `seed`, for
+/// the crate's unit tests (reproducible, no dependency).
+#[cfg(test)]
+pub(crate) fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
+    move || {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// `a · b + c`: two roundings, as the WGSL mirrors spell it (one under
 /// [`FUSED`] in the crate's unit tests). The multiply-adds of the
 /// collision mirror go through here, so that a test can fuse them all.

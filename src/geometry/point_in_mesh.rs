@@ -15,6 +15,7 @@
 //! parity. `shaders/shared/point_in_mesh.wgsl` mirrors this file.
 
 use super::V3;
+use glam::DVec3;
 
 /// The fixed ray direction, chosen to avoid the axis-aligned and 45° features
 /// that CAD heads are full of (ties are handled, but rarer is faster).
@@ -22,25 +23,13 @@ pub const RAY_DIR: V3 = [0.285_190_6, 0.186_472_3, 0.940_155_6];
 
 /// An orthonormal frame `(a, b, d)` with `d = RAY_DIR`.
 pub fn ray_frame() -> [V3; 3] {
-    let d = [RAY_DIR[0] as f64, RAY_DIR[1] as f64, RAY_DIR[2] as f64];
-    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-    let d = [d[0] / n, d[1] / n, d[2] / n];
+    let d = DVec3::from(RAY_DIR.map(|x| x as f64));
+    let d = d / d.length();
     // a = normalize(x × d) style construction, in f64 then rounded.
-    let t = [1.0, 0.0, 0.0];
-    let a = cross64(t, d);
-    let la = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
-    let a = [a[0] / la, a[1] / la, a[2] / la];
-    let b = cross64(d, a);
-    let f = |v: [f64; 3]| [v[0] as f32, v[1] as f32, v[2] as f32];
-    [f(a), f(b), f(d)]
-}
-
-fn cross64(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    let a = DVec3::X.cross(d);
+    let a = a / a.length();
+    let b = d.cross(a);
+    [a, b, d].map(|v| v.as_vec3().to_array())
 }
 
 /// `p` expressed in the ray frame (`frame` from [`ray_frame`]).

@@ -2,61 +2,48 @@
 //! "Real-Time Collision Detection", 5.1.5), in `f64`. Used once per head to
 //! build its distance grid, never per query.
 
+use glam::DVec3;
+
 /// Distance from `p` to triangle `(a, b, c)`.
 pub fn point_triangle_distance(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
-    let q = closest_point(p, a, b, c);
-    let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-    (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    DVec3::from(p).distance(DVec3::from(closest_point(p, a, b, c)))
 }
 
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn mad(a: [f64; 3], b: [f64; 3], s: f64) -> [f64; 3] {
-    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
-}
-
-/// The point of triangle `abc` nearest to `p` (Ericson 5.1.5).
+/// The point of triangle `abc` nearest to `p` (Ericson 5.1.5): a vertex,
+/// a point of an edge, or of the face, by the region `p` projects into.
 pub fn closest_point(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> [f64; 3] {
-    let ab = sub(b, a);
-    let ac = sub(c, a);
-    let ap = sub(p, a);
-    let d1 = dot(ab, ap);
-    let d2 = dot(ac, ap);
+    let [p, a, b, c] = [p, a, b, c].map(DVec3::from);
+    let (ab, ac) = (b - a, c - a);
+    // The two edges from a vertex against the vector from it to p.
+    let edges_to = |v: DVec3| (ab.dot(p - v), ac.dot(p - v));
+    let (d1, d2) = edges_to(a);
     if d1 <= 0.0 && d2 <= 0.0 {
-        return a;
+        return a.to_array();
     }
-    let bp = sub(p, b);
-    let d3 = dot(ab, bp);
-    let d4 = dot(ac, bp);
+    let (d3, d4) = edges_to(b);
     if d3 >= 0.0 && d4 <= d3 {
-        return b;
+        return b.to_array();
     }
     let vc = d1 * d4 - d3 * d2;
     if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
-        return mad(a, ab, d1 / (d1 - d3));
+        return (a + ab * (d1 / (d1 - d3))).to_array();
     }
-    let cp = sub(p, c);
-    let d5 = dot(ab, cp);
-    let d6 = dot(ac, cp);
+    let (d5, d6) = edges_to(c);
     if d6 >= 0.0 && d5 <= d6 {
-        return c;
+        return c.to_array();
     }
     let vb = d5 * d2 - d1 * d6;
     if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
-        return mad(a, ac, d2 / (d2 - d6));
+        return (a + ac * (d2 / (d2 - d6))).to_array();
     }
     let va = d3 * d6 - d5 * d4;
     if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
-        return mad(b, sub(c, b), (d4 - d3) / ((d4 - d3) + (d5 - d6)));
+        return (b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)))).to_array();
     }
     let denom = 1.0 / (va + vb + vc);
     let v = vb * denom;
     let w = vc * denom;
-    mad(mad(a, ab, v), ac, w)
+    (a + ab * v + ac * w).to_array()
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 //! asymmetric heads.
 
 use super::V3;
+use glam::DVec3;
 
 /// A rigid head pose: `x_part = rot * x_head + tip`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,7 +21,8 @@ impl Pose {
     /// The minimal rotation taking `+z` onto `axis` (normalised here), placed
     /// at `tip`. `axis = -z` maps to a half-turn about `x`.
     pub fn from_axis(tip: V3, axis: V3) -> Pose {
-        let n = normalize64([axis[0] as f64, axis[1] as f64, axis[2] as f64]);
+        let n = to64(axis);
+        let n = n / n.length();
         let c = n[2];
         let m: [[f64; 3]; 3] = if c > 1.0 - 1e-12 {
             [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
@@ -81,41 +83,22 @@ impl Pose {
     /// (measured in the plane normal to the axis), as a new pose at the same
     /// tip. Used to sample candidate orientations around a waypoint.
     pub fn tilted(&self, tilt: f64, azimuth: f64) -> Pose {
-        let n = normalize64(to64(self.axis()));
+        let n = to64(self.axis());
+        let n = n / n.length();
         // Any unit vector orthogonal to n, then a second one.
-        let helper = if n[0].abs() < 0.9 {
-            [1.0, 0.0, 0.0]
-        } else {
-            [0.0, 1.0, 0.0]
-        };
-        let u = normalize64(cross64(n, helper));
-        let v = cross64(n, u);
+        let helper = if n[0].abs() < 0.9 { DVec3::X } else { DVec3::Y };
+        let u = n.cross(helper);
+        let u = u / u.length();
+        let v = n.cross(u);
         let (st, ct) = tilt.sin_cos();
         let (sa, ca) = azimuth.sin_cos();
-        let d = [
-            ct * n[0] + st * (ca * u[0] + sa * v[0]),
-            ct * n[1] + st * (ca * u[1] + sa * v[1]),
-            ct * n[2] + st * (ca * u[2] + sa * v[2]),
-        ];
-        Pose::from_axis(self.tip, [d[0] as f32, d[1] as f32, d[2] as f32])
+        let d = n * ct + (u * ca + v * sa) * st;
+        Pose::from_axis(self.tip, d.as_vec3().to_array())
     }
 }
 
-fn to64(v: V3) -> [f64; 3] {
-    [v[0] as f64, v[1] as f64, v[2] as f64]
-}
-
-fn normalize64(v: [f64; 3]) -> [f64; 3] {
-    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-    [v[0] / l, v[1] / l, v[2] / l]
-}
-
-fn cross64(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+fn to64(v: V3) -> DVec3 {
+    DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64)
 }
 
 #[cfg(test)]

@@ -1,6 +1,10 @@
-//! The `#[repr(C)]` Pod structs that go to the GPU as they are. Each has a
-//! WGSL twin in `shaders/shared/types.wgsl`; keep the two in sync (the size
-//! assertions below and the naga layout test catch drift).
+//! The scene's buffers as the kernels and their CPU mirrors read them:
+//! `#[repr(C)]` Pod structs that go to the GPU as they are (triangles,
+//! BVH nodes, the head's scalars) and the query that poses the head among
+//! them. Each has a WGSL twin in `shaders/shared/types.wgsl`; keep the two
+//! in sync (the size assertions below and the naga layout test,
+//! `tests/shaders.rs`, catch drift). The kernels' own per-batch records
+//! (parameters, moves, result words) are `collide::gpu::wire`'s.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -188,93 +192,6 @@ pub struct GpuHeadParams {
     pub _pad: u32,
 }
 
-/// Per-batch scalars of the `collide_*` kernels (`Params` in
-/// `shaders/shared/collide_common.wgsl`), 32 bytes.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuParams {
-    /// Elements per part-node binding (a scene larger than one storage
-    /// binding is split across several).
-    pub nodes_per_chunk: u32,
-    /// Elements per part-triangle binding.
-    pub tris_per_chunk: u32,
-    /// Queries in the batch.
-    pub query_count: u32,
-    /// Slots of the candidate list.
-    pub capacity: u32,
-    /// 0: the batch's first walk; 1: a resumed walk, only for the queries
-    /// whose candidates did not all fit ([`RESULT_INCOMPLETE`]), handing
-    /// over the candidates after the ones already tested.
-    pub resume: u32,
-    /// The most candidates one query hands over in one pass; the rest
-    /// wait for a resumed pass ([`RESULT_INCOMPLETE`]), by when the first
-    /// ones may have settled the query.
-    pub per_query: u32,
-    /// Padding to 16-byte multiples (uniform layout).
-    pub _pad: [u32; 2],
-}
-
-/// The batch's per-query result word: the query collides.
-pub const RESULT_HIT: u32 = 1;
-/// The result word: some of the query's candidates were not handed over
-/// (the list was full, or the query had handed over its share for the
-/// pass): its walk is resumed in the next pass of the batch.
-pub const RESULT_INCOMPLETE: u32 = 2;
-/// The result word above these bits: how many of the query's candidates,
-/// in walk order, have been handed to the exact pass.
-pub const RESULT_STORED_SHIFT: u32 = 2;
-
-/// A machine move whose samples the device poses (`collide_expand`) and
-/// whose verdict it reduces from theirs (`collide_reduce`), 64 bytes
-/// (`Move` in `shaders/shared/types.wgsl`). Sample `k` (1 ≤ k ≤ `count`)
-/// is the machine's pose at fraction `k · inv_n` of the move.
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuMove {
-    /// Machine X, Y, Z and tilt (radians) at the start.
-    pub from: [f32; 4],
-    /// Machine X, Y, Z and tilt at the end.
-    pub to: [f32; 4],
-    /// C at the start (radians, reduced to one turn).
-    pub c_from: f32,
-    /// C's travel over the move (radians, as the machine turns).
-    pub c_delta: f32,
-    /// `1 / n`, the fraction of the move between samples.
-    pub inv_n: f32,
-    /// Material with `stamp < cutoff` exists during the move.
-    pub cutoff: u32,
-    /// Safety margin of every sample (mm).
-    pub margin: f32,
-    /// The query slot of its first sample in the batch.
-    pub first: u32,
-    /// Its samples (`n − 1`: the ends are not sampled).
-    pub count: u32,
-    /// Padding to 16-byte multiples.
-    pub _pad: u32,
-}
-
-/// The machine the motion kernels pose samples for, and the batch's move
-/// count, 32 bytes (`Motion` in `shaders/shared/types.wgsl`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuMotion {
-    /// Table I configuration: 1, 2 or 3 (I, II, III).
-    pub configuration: u32,
-    /// 0 B/C, 1 A/C.
-    pub rotary: u32,
-    /// 0 joint-linear, 1 the tip straight in the part frame.
-    pub interpolation: u32,
-    /// Moves in the batch.
-    pub move_count: u32,
-    /// Offsets `d`, `h`, `r` (mm).
-    pub offsets: [f32; 3],
-    /// Padding to 16-byte multiples.
-    pub _pad: u32,
-}
-
-const _: () = assert!(std::mem::size_of::<GpuParams>() == 32);
-const _: () = assert!(std::mem::size_of::<GpuMove>() == 64);
-const _: () = assert!(std::mem::size_of::<GpuMotion>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuTriangle>() == 48);
 const _: () = assert!(std::mem::size_of::<GpuNode>() == 32);
 const _: () = assert!(std::mem::size_of::<GpuPartNode>() == 32);

@@ -19,17 +19,18 @@
 //! them outside the head) and settles points the fine grid does not reach
 //! the same way; beyond both, the distance to the head's box. Without it,
 //! big part nodes below a cone-shaped head are bounded only by the box's
-//! flat bottom at the tip's height and are never culled (on simple_curve
-//! about half of all node visits).
+//! flat bottom at the tip's height and are never culled.
 
 use super::bvh::{self, StampedBvh};
 use super::gpu_types::{GpuHeadParams, GpuNode, GpuTriangle};
 use super::hull_plane;
+use super::nearest::{nearest_distance, HeadBvh};
 use super::SceneError;
 use crate::geometry::aabb::point_box_distance;
 use crate::geometry::point_in_mesh::{contains_brute, ray_frame, to_ray_space};
-use crate::geometry::point_triangle_distance::{closest_point, point_triangle_distance};
+use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::geometry::{Aabb, Mesh, V3};
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// The head, ready for every backend.
@@ -75,34 +76,8 @@ impl Head {
     /// Build from a closed mesh in the head frame (tip at origin, axis +z).
     /// `tol` is the scene's contact tolerance (mm).
     pub fn build(mesh: &Mesh, cfg: &HeadConfig, tol: f32) -> Result<Head, SceneError> {
-        let (mesh, _) = mesh.welded().without_degenerate();
-        if mesh.triangles.is_empty() {
-            return Err(SceneError::Empty("the head mesh has no triangles".into()));
-        }
-        let open = mesh.open_edges();
-        if open > 0 {
-            return Err(SceneError::HeadNotClosed(open));
-        }
-        if mesh.signed_volume() < 0.0 {
-            return Err(SceneError::HeadInsideOut);
-        }
-        let lift = cfg.tip_clearance;
-        let mesh = mesh.map_vertices(|v| [v[0], v[1], v[2] + lift]);
-
-        let tris: Vec<GpuTriangle> = (0..mesh.triangles.len())
-            .map(|i| {
-                let [v0, v1, v2] = mesh.corners(i);
-                GpuTriangle {
-                    v0,
-                    stamp: 0,
-                    v1,
-                    layer: u32::MAX,
-                    v2,
-                    source: i as u32,
-                }
-            })
-            .collect();
-        let StampedBvh { nodes, triangles } = bvh::build(&tris, 4, 0.0)?;
+        let mesh = closed_and_lifted(mesh, cfg.tip_clearance)?;
+        let StampedBvh { nodes, triangles } = bvh::build(&head_triangles(&mesh), 4, 0.0)?;
         let frame = ray_frame();
         let ray_triangles = triangles
             .iter()
@@ -113,80 +88,9 @@ impl Head {
                 ..*t
             })
             .collect();
-
         let aabb = Aabb::from_points(&mesh.vertices);
-        let cell = aabb.extent() / cfg.grid_resolution.max(4) as f32;
-        let band = 8.0 * cell;
-        let origin = [aabb.min[0] - band, aabb.min[1] - band, aabb.min[2] - band];
-        let dims: [u32; 3] = std::array::from_fn(|k| {
-            (((aabb.max[k] - aabb.min[k]) + 2.0 * band) / cell).ceil() as u32 + 1
-        });
-        let bvh = (nodes.as_slice(), triangles.as_slice());
-        let mut grid = distance_grid(&mesh, bvh, origin, cell, dims, band);
-
-        // The far grid: FAR_COARSE times coarser, reaching one head extent
-        // beyond the fine grid on every side, so big part nodes below and
-        // beside the head are culled by distance, not by the head's box.
-        const FAR_COARSE: f32 = 8.0;
-        let far_cell = cell * FAR_COARSE;
-        let reach = aabb.extent();
-        let far_origin = origin.map(|o| o - reach);
-        let far_dims: [u32; 3] = std::array::from_fn(|k| {
-            ((dims[k] as f32 * cell + 2.0 * reach) / far_cell).ceil() as u32
-        });
-        let far_offset = grid.len() as u32;
-        grid.extend(far_grid(bvh, &aabb, far_origin, far_cell, far_dims));
-        let support_offset = grid.len() as u32;
-        grid.extend(super::slab::support_pairs(&mesh.vertices));
-        // The planes start on a 16-byte boundary and the grid ends on one:
-        // the kernels read a plane as one vec4 (`grid4`).
-        grid.resize(grid.len().next_multiple_of(4), 0.0);
-        let plane_offset = grid.len() as u32;
-        let (plane_origin, plane_cell, plane_dims) = hull_plane::plane_grid(origin, cell, dims);
-        // Exact containment (ray parity, as the evaluators decide it).
-        let ray_verts: Vec<V3> = mesh
-            .vertices
-            .iter()
-            .map(|v| to_ray_space(&frame, *v))
-            .collect();
-        let inside =
-            |p: [f32; 3]| contains_brute(&ray_verts, &mesh.triangles, to_ray_space(&frame, p));
-        let planes = hull_plane::hull_planes(
-            (&nodes, &triangles),
-            &mesh.vertices,
-            (plane_origin, plane_cell, plane_dims),
-            inside,
-        );
-        grid.extend(planes);
-        grid.resize(grid.len().next_multiple_of(4), 0.0);
-
-        let params = GpuHeadParams {
-            aabb_min: aabb.min,
-            tol: 0.0,
-            aabb_max: aabb.max,
-            grid_slack: 0.0,
-            grid_origin: origin,
-            cell,
-            grid_dims: dims,
-            tri_count: triangles.len() as u32,
-            ray_a: [frame[0][0], frame[0][1], frame[0][2], 0.0],
-            ray_b: [frame[1][0], frame[1][1], frame[1][2], 0.0],
-            ray_d: [frame[2][0], frame[2][1], frame[2][2], 0.0],
-            inv_cell: 1.0 / cell,
-            inv_ray: [1.0 / frame[2][0], 1.0 / frame[2][1], 1.0 / frame[2][2]],
-            far_origin,
-            far_cell,
-            far_dims,
-            far_offset,
-            far_inv_cell: 1.0 / far_cell,
-            support_offset,
-            plane_offset,
-            plane_inv_cell: 1.0 / plane_cell,
-            plane_origin,
-            plane_cell,
-            plane_dims,
-            _pad: 0,
-        };
+        let (grid, layout) = grid_buffer(&mesh, (&nodes[..], &triangles[..]), &aabb, &frame, cfg);
+        let params = head_params(&aabb, &frame, &layout, triangles.len() as u32);
         let mut head = Head {
             mesh,
             params,
@@ -216,101 +120,200 @@ impl Head {
     }
 }
 
-/// The head BVH's nodes and its triangles in leaf order.
-pub(crate) type HeadBvh<'a> = (&'a [GpuNode], &'a [GpuTriangle]);
+/// `mesh` welded and without degenerate triangles, checked closed and
+/// outwards facing, and lifted by the tip clearance `lift` along its
+/// axis.
+fn closed_and_lifted(mesh: &Mesh, lift: f32) -> Result<Mesh, SceneError> {
+    let (mesh, _) = mesh.welded().without_degenerate();
+    if mesh.triangles.is_empty() {
+        return Err(SceneError::Empty("the head mesh has no triangles".into()));
+    }
+    let open = mesh.open_edges();
+    if open > 0 {
+        return Err(SceneError::HeadNotClosed(open));
+    }
+    if mesh.signed_volume() < 0.0 {
+        return Err(SceneError::HeadInsideOut);
+    }
+    Ok(mesh.map_vertices(|v| [v[0], v[1], v[2] + lift]))
+}
 
-/// Signed distances at cell centres, capped at `band`: exact distances in a
-/// band around each triangle, signs from vertical ray parity per column.
-fn distance_grid(
-    mesh: &Mesh,
-    bvh: HeadBvh,
+/// The head's triangles for its BVH (stamp 0, no layer).
+fn head_triangles(mesh: &Mesh) -> Vec<GpuTriangle> {
+    (0..mesh.triangles.len())
+        .map(|i| {
+            let [v0, v1, v2] = mesh.corners(i);
+            GpuTriangle {
+                v0,
+                stamp: 0,
+                v1,
+                layer: u32::MAX,
+                v2,
+                source: i as u32,
+            }
+        })
+        .collect()
+}
+
+/// A grid of cells: its corner, cell size and cell counts.
+#[derive(Clone, Copy, Debug)]
+struct GridLayout {
     origin: V3,
     cell: f32,
     dims: [u32; 3],
-    band: f32,
-) -> Vec<f32> {
-    let [nx, ny, nz] = dims.map(|d| d as usize);
-    let centre = |i: usize, k: usize| origin[k] as f64 + (i as f64 + 0.5) * cell as f64;
+}
+
+impl GridLayout {
+    /// The fine grid around the head's box `aabb`, `resolution` cells
+    /// along its longest side, reaching `band` beyond it on every side.
+    fn fine(aabb: &Aabb, resolution: u32, band: f32) -> Self {
+        let cell = aabb.extent() / resolution.max(4) as f32;
+        let origin = [aabb.min[0] - band, aabb.min[1] - band, aabb.min[2] - band];
+        let dims: [u32; 3] = std::array::from_fn(|k| {
+            (((aabb.max[k] - aabb.min[k]) + 2.0 * band) / cell).ceil() as u32 + 1
+        });
+        GridLayout { origin, cell, dims }
+    }
+
+    /// The far grid: [`FAR_COARSE`] times coarser than `self`, reaching
+    /// `reach` beyond it on every side.
+    fn far(&self, reach: f32) -> Self {
+        let cell = self.cell * FAR_COARSE;
+        let origin = self.origin.map(|o| o - reach);
+        let dims: [u32; 3] = std::array::from_fn(|k| {
+            ((self.dims[k] as f32 * self.cell + 2.0 * reach) / cell).ceil() as u32
+        });
+        GridLayout { origin, cell, dims }
+    }
+
+    /// The centre of cell `i` along axis `k`, in f64.
+    fn centre(&self, i: usize, k: usize) -> f64 {
+        self.origin[k] as f64 + (i as f64 + 0.5) * self.cell as f64
+    }
+}
+
+/// How much coarser the far grid is than the fine one. It reaches one
+/// head extent beyond the fine grid on every side, so big part nodes
+/// below and beside the head are culled by distance, not by the head's
+/// box.
+const FAR_COARSE: f32 = 8.0;
+
+/// Where each table of the grid buffer lies and how its grid is laid out.
+struct GridBufferLayout {
+    fine: GridLayout,
+    far: GridLayout,
+    far_offset: u32,
+    support_offset: u32,
+    planes: GridLayout,
+    plane_offset: u32,
+}
+
+/// The grid buffer the evaluators read: the fine distance grid, the far
+/// grid, the support map and the hull planes, one after another
+/// ([`Head::grid`]); and where each lies.
+fn grid_buffer(
+    mesh: &Mesh,
+    bvh: HeadBvh,
+    aabb: &Aabb,
+    frame: &[V3; 3],
+    cfg: &HeadConfig,
+) -> (Vec<f32>, GridBufferLayout) {
+    let band = 8.0 * (aabb.extent() / cfg.grid_resolution.max(4) as f32);
+    let fine = GridLayout::fine(aabb, cfg.grid_resolution, band);
+    let far = fine.far(aabb.extent());
+    let mut grid = distance_grid(mesh, bvh, &fine, band);
+    let far_offset = grid.len() as u32;
+    grid.extend(far_grid(bvh, aabb, &far));
+    let support_offset = grid.len() as u32;
+    grid.extend(super::slab::support_pairs(&mesh.vertices));
+    // The planes start on a 16-byte boundary and the grid ends on one:
+    // the kernels read a plane as one vec4 (`grid4`).
+    grid.resize(grid.len().next_multiple_of(4), 0.0);
+    let plane_offset = grid.len() as u32;
+    let (origin, cell, dims) = hull_plane::plane_grid(fine.origin, fine.cell, fine.dims);
+    let planes = GridLayout { origin, cell, dims };
+    // Exact containment (ray parity, as the evaluators decide it).
+    let ray_verts: Vec<V3> = mesh
+        .vertices
+        .iter()
+        .map(|v| to_ray_space(frame, *v))
+        .collect();
+    let inside = |p: [f32; 3]| contains_brute(&ray_verts, &mesh.triangles, to_ray_space(frame, p));
+    grid.extend(hull_plane::hull_planes(
+        bvh,
+        &mesh.vertices,
+        (origin, cell, dims),
+        inside,
+    ));
+    grid.resize(grid.len().next_multiple_of(4), 0.0);
+    let layout = GridBufferLayout {
+        fine,
+        far,
+        far_offset,
+        support_offset,
+        planes,
+        plane_offset,
+    };
+    (grid, layout)
+}
+
+/// The head's scalars for the kernels, the tolerance not yet set
+/// ([`Head::set_tol`]).
+fn head_params(
+    aabb: &Aabb,
+    frame: &[V3; 3],
+    layout: &GridBufferLayout,
+    tri_count: u32,
+) -> GpuHeadParams {
+    let GridBufferLayout {
+        fine, far, planes, ..
+    } = layout;
+    GpuHeadParams {
+        aabb_min: aabb.min,
+        tol: 0.0,
+        aabb_max: aabb.max,
+        grid_slack: 0.0,
+        grid_origin: fine.origin,
+        cell: fine.cell,
+        grid_dims: fine.dims,
+        tri_count,
+        ray_a: [frame[0][0], frame[0][1], frame[0][2], 0.0],
+        ray_b: [frame[1][0], frame[1][1], frame[1][2], 0.0],
+        ray_d: [frame[2][0], frame[2][1], frame[2][2], 0.0],
+        inv_cell: 1.0 / fine.cell,
+        inv_ray: [1.0 / frame[2][0], 1.0 / frame[2][1], 1.0 / frame[2][2]],
+        far_origin: far.origin,
+        far_cell: far.cell,
+        far_dims: far.dims,
+        far_offset: layout.far_offset,
+        far_inv_cell: 1.0 / far.cell,
+        support_offset: layout.support_offset,
+        plane_offset: layout.plane_offset,
+        plane_inv_cell: 1.0 / planes.cell,
+        plane_origin: planes.origin,
+        plane_cell: planes.cell,
+        plane_dims: planes.dims,
+        _pad: 0,
+    }
+}
+
+/// Signed distances at the fine grid's cell centres, capped at `band`:
+/// exact distances in a band around each triangle, signs from vertical
+/// ray parity per column, then the capped cells lifted to the coarse
+/// grid's bound ([`lift_capped_cells`]).
+fn distance_grid(mesh: &Mesh, bvh: HeadBvh, layout: &GridLayout, band: f32) -> Vec<f32> {
+    let [nx, ny, nz] = layout.dims.map(|d| d as usize);
     let tris: Vec<[[f64; 3]; 3]> = (0..mesh.triangles.len())
         .map(|i| mesh.corners(i).map(|v| v.map(|c| c as f64)))
         .collect();
-    // Unit normal and offset per triangle: a column meets the band around
-    // a triangle only where it meets the slab |n·p − d| ≤ band.
-    let planes: Vec<([f64; 3], f64)> = tris
-        .iter()
-        .map(|t| {
-            let (u, v) = (sub64(t[1], t[0]), sub64(t[2], t[0]));
-            let n = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
-            let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            let n = n.map(|c| c / l);
-            (n, n[0] * t[0][0] + n[1] * t[0][1] + n[2] * t[0][2])
-        })
-        .collect();
-    let band64 = band as f64;
-
+    let planes = triangle_planes(&tris);
     // One z-column (fixed x, y) per task: unsigned distance, then the sign.
     let columns: Vec<Vec<f32>> = (0..nx * ny)
         .into_par_iter()
         .map(|col| {
-            let (ix, iy) = (col % nx, col / nx);
-            let (x, y) = (centre(ix, 0), centre(iy, 1));
-            let mut dist = vec![band64; nz];
-            let mut crossings: Vec<f64> = Vec::new();
-            for (t, (n, d)) in tris.iter().zip(&planes) {
-                let lo = [0, 1, 2].map(|k| t[0][k].min(t[1][k]).min(t[2][k]));
-                let hi = [0, 1, 2].map(|k| t[0][k].max(t[1][k]).max(t[2][k]));
-                if x >= lo[0] - band64
-                    && x <= hi[0] + band64
-                    && y >= lo[1] - band64
-                    && y <= hi[1] + band64
-                {
-                    // The slab's z range on this column (one cell wider each
-                    // way for rounding), within the box's.
-                    let (mut z0, mut z1) = (lo[2] - band64, hi[2] + band64);
-                    let off = d - n[0] * x - n[1] * y;
-                    if n[2].abs() > 1e-9 {
-                        let (a, b) = ((off - band64) / n[2], (off + band64) / n[2]);
-                        z0 = z0.max(a.min(b) - cell as f64);
-                        z1 = z1.min(a.max(b) + cell as f64);
-                    } else if off.abs() > band64 + cell as f64 {
-                        z1 = z0 - 1.0;
-                    }
-                    let k0 = (((z0 - origin[2] as f64) / cell as f64).floor().max(0.0)) as usize;
-                    let k1 = ((((z1 - origin[2] as f64) / cell as f64).ceil()).max(0.0) as usize)
-                        .min(nz);
-                    for (k, d) in dist.iter_mut().enumerate().take(k1).skip(k0) {
-                        let z = centre(k, 2);
-                        // The plane's distance bounds the triangle's from
-                        // below: a triangle that cannot beat the nearest so
-                        // far is not measured (with room for rounding, so
-                        // the minimum is the one measuring all would give).
-                        if (off - n[2] * z).abs() > *d + 1e-9 {
-                            continue;
-                        }
-                        *d = d.min(point_triangle_distance([x, y, z], t[0], t[1], t[2]));
-                    }
-                }
-                if let Some(z) = vertical_crossing(t, x, y) {
-                    crossings.push(z);
-                }
-            }
-            crossings.sort_by(f64::total_cmp);
-            (0..nz)
-                .map(|k| {
-                    let z = centre(k, 2);
-                    let above = crossings.len() - crossings.partition_point(|&c| c <= z);
-                    let d = dist[k].min(band64) as f32;
-                    if above % 2 == 1 {
-                        -d
-                    } else {
-                        d
-                    }
-                })
-                .collect()
+            let (x, y) = (layout.centre(col % nx, 0), layout.centre(col / nx, 1));
+            let (dist, crossings) = column(&tris, &planes, layout, band as f64, (x, y));
+            signed_column(layout, band as f64, &dist, crossings)
         })
         .collect();
     let mut grid = vec![0.0f32; nx * ny * nz];
@@ -319,15 +322,105 @@ fn distance_grid(
             grid[k * nx * ny + col] = v;
         }
     }
+    lift_capped_cells(&mut grid, bvh, layout, band as f64);
+    grid
+}
 
-    // Beyond the band the cap W would stop big part nodes from ever being
-    // culled. Exact distances on a grid COARSE times coarser (brute force,
-    // cheap at that size) lift every capped cell to the valid lower bound
-    // `coarse distance − distance between the two cell centres`.
-    const COARSE: usize = 4;
-    let cdims = [nx, ny, nz].map(|n| n.div_ceil(COARSE));
-    let ccell = cell as f64 * COARSE as f64;
-    let ccentre = |i: usize, k: usize| origin[k] as f64 + (i as f64 + 0.5) * ccell;
+/// Unit normal and offset per triangle: a column meets the band around a
+/// triangle only where it meets the slab `|n·p − d| ≤ band`.
+fn triangle_planes(tris: &[[[f64; 3]; 3]]) -> Vec<(DVec3, f64)> {
+    tris.iter()
+        .map(|t| {
+            let [a, b, c] = t.map(DVec3::from);
+            let n = (b - a).cross(c - a);
+            let n = n / n.length();
+            (n, n.dot(a))
+        })
+        .collect()
+}
+
+/// The column of cells at `(x, y)`: each cell's distance to the nearest
+/// triangle within `band` (`band` where none is), and the heights where
+/// the vertical line crosses the head, unsorted.
+fn column(
+    tris: &[[[f64; 3]; 3]],
+    planes: &[(DVec3, f64)],
+    layout: &GridLayout,
+    band: f64,
+    (x, y): (f64, f64),
+) -> (Vec<f64>, Vec<f64>) {
+    let nz = layout.dims[2] as usize;
+    let (oz, cell) = (layout.origin[2] as f64, layout.cell as f64);
+    let mut dist = vec![band; nz];
+    let mut crossings: Vec<f64> = Vec::new();
+    for (t, (n, d)) in tris.iter().zip(planes) {
+        let lo = [0, 1, 2].map(|k| t[0][k].min(t[1][k]).min(t[2][k]));
+        let hi = [0, 1, 2].map(|k| t[0][k].max(t[1][k]).max(t[2][k]));
+        if x >= lo[0] - band && x <= hi[0] + band && y >= lo[1] - band && y <= hi[1] + band {
+            // The slab's z range on this column (one cell wider each
+            // way for rounding), within the box's.
+            let (mut z0, mut z1) = (lo[2] - band, hi[2] + band);
+            let off = d - n[0] * x - n[1] * y;
+            if n[2].abs() > 1e-9 {
+                let (a, b) = ((off - band) / n[2], (off + band) / n[2]);
+                z0 = z0.max(a.min(b) - cell);
+                z1 = z1.min(a.max(b) + cell);
+            } else if off.abs() > band + cell {
+                z1 = z0 - 1.0;
+            }
+            let k0 = (((z0 - oz) / cell).floor().max(0.0)) as usize;
+            let k1 = ((((z1 - oz) / cell).ceil()).max(0.0) as usize).min(nz);
+            for (k, d) in dist.iter_mut().enumerate().take(k1).skip(k0) {
+                let z = layout.centre(k, 2);
+                // The plane's distance bounds the triangle's from below: a
+                // triangle that cannot beat the nearest so far is not
+                // measured (with room for rounding, so the minimum is the
+                // one measuring all would give).
+                if (off - n[2] * z).abs() > *d + 1e-9 {
+                    continue;
+                }
+                *d = d.min(point_triangle_distance([x, y, z], t[0], t[1], t[2]));
+            }
+        }
+        if let Some(z) = vertical_crossing(t, x, y) {
+            crossings.push(z);
+        }
+    }
+    (dist, crossings)
+}
+
+/// A column's cells as stored: each distance capped at `band`, negative
+/// where an odd number of `crossings` lie above the cell's centre.
+fn signed_column(
+    layout: &GridLayout,
+    band: f64,
+    dist: &[f64],
+    mut crossings: Vec<f64>,
+) -> Vec<f32> {
+    crossings.sort_by(f64::total_cmp);
+    (0..layout.dims[2] as usize)
+        .map(|k| {
+            let z = layout.centre(k, 2);
+            let above = crossings.len() - crossings.partition_point(|&c| c <= z);
+            let d = dist[k].min(band) as f32;
+            if above % 2 == 1 {
+                -d
+            } else {
+                d
+            }
+        })
+        .collect()
+}
+
+/// Beyond the band the cap would stop big part nodes from ever being
+/// culled. Exact distances on a grid [`LIFT_COARSE`] times coarser (brute
+/// force, cheap at that size) lift every capped cell to the valid lower
+/// bound `coarse distance − distance between the two cell centres`.
+fn lift_capped_cells(grid: &mut [f32], bvh: HeadBvh, layout: &GridLayout, band: f64) {
+    let [nx, ny, nz] = layout.dims.map(|d| d as usize);
+    let cdims = [nx, ny, nz].map(|n| n.div_ceil(LIFT_COARSE));
+    let ccell = layout.cell as f64 * LIFT_COARSE as f64;
+    let ccentre = |i: usize, k: usize| layout.origin[k] as f64 + (i as f64 + 0.5) * ccell;
     let coarse: Vec<f64> = (0..cdims[0] * cdims[1] * cdims[2])
         .into_par_iter()
         .map(|c| {
@@ -342,26 +435,29 @@ fn distance_grid(
     grid.par_iter_mut().enumerate().for_each(|(idx, v)| {
         let (i, j, k) = (idx % nx, (idx / nx) % ny, idx / (nx * ny));
         let mut d = v.abs() as f64;
-        if d >= band64 {
-            let (ci, cj, ck) = (i / COARSE, j / COARSE, k / COARSE);
-            let off = [
-                centre(i, 0) - ccentre(ci, 0),
-                centre(j, 1) - ccentre(cj, 1),
-                centre(k, 2) - ccentre(ck, 2),
-            ];
-            let off = (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt();
-            d = (coarse[(ck * cdims[1] + cj) * cdims[0] + ci] - off).max(band64);
+        if d >= band {
+            let (ci, cj, ck) = (i / LIFT_COARSE, j / LIFT_COARSE, k / LIFT_COARSE);
+            let off = DVec3::new(
+                layout.centre(i, 0) - ccentre(ci, 0),
+                layout.centre(j, 1) - ccentre(cj, 1),
+                layout.centre(k, 2) - ccentre(ck, 2),
+            );
+            d = (coarse[(ck * cdims[1] + cj) * cdims[0] + ci] - off.length()).max(band);
         }
         let m = d as f32;
         *v = if *v < 0.0 { -m } else { m };
     });
-    grid
 }
+
+/// How much coarser the grid of exact distances that lifts capped cells
+/// is than the fine grid.
+const LIFT_COARSE: usize = 4;
 
 /// Unsigned distances from the far grid's cell centres to the head; 0 (a
 /// bound that settles nothing) for centres inside the head's box, which
 /// lie in the fine grid's reach and are never read.
-fn far_grid(bvh: HeadBvh, aabb: &Aabb, origin: V3, cell: f32, dims: [u32; 3]) -> Vec<f32> {
+fn far_grid(bvh: HeadBvh, aabb: &Aabb, layout: &GridLayout) -> Vec<f32> {
+    let GridLayout { origin, cell, dims } = *layout;
     let [nx, ny, nz] = dims.map(|d| d as usize);
     (0..nx * ny * nz)
         .into_par_iter()
@@ -375,58 +471,6 @@ fn far_grid(bvh: HeadBvh, aabb: &Aabb, origin: V3, cell: f32, dims: [u32; 3]) ->
             nearest_distance(bvh, p.map(|x| x as f64)) as f32
         })
         .collect()
-}
-
-/// Distance from `p` to the nearest head triangle: the BVH walked nearer
-/// child first, subtrees pruned by their box's distance (in f32, so with
-/// 1e-4 mm to spare).
-pub(crate) fn nearest_distance(bvh: HeadBvh, p: [f64; 3]) -> f64 {
-    nearest_on(bvh, p).0
-}
-
-/// [`nearest_distance`], the nearest point of the head's surface and the
-/// triangle it lies on (index into the BVH's triangles).
-pub(crate) fn nearest_on((nodes, tris): HeadBvh, p: [f64; 3]) -> (f64, [f64; 3], usize) {
-    let pf = p.map(|x| x as f32);
-    let box_distance = |n: u32| {
-        let node = &nodes[n as usize];
-        point_box_distance(pf, node.min, node.max) as f64 - 1e-4
-    };
-    let f64v = |v: V3| v.map(|x| x as f64);
-    let mut best = (f64::INFINITY, p, 0);
-    let mut stack = vec![0u32];
-    while let Some(n) = stack.pop() {
-        if box_distance(n) >= best.0 {
-            continue;
-        }
-        match nodes[n as usize].leaf_range() {
-            Some((first, count)) => {
-                let first = first as usize;
-                for (i, t) in tris.iter().enumerate().skip(first).take(count as usize) {
-                    let q = closest_point(p, f64v(t.v0), f64v(t.v1), f64v(t.v2));
-                    let d = sub64(p, q);
-                    let d = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                    if d < best.0 {
-                        best = (d, q, i);
-                    }
-                }
-            }
-            None => {
-                let (l, r) = (nodes[n as usize].packed, nodes[n as usize].packed + 1);
-                // Nearer child on top.
-                if box_distance(l) <= box_distance(r) {
-                    stack.extend([r, l]);
-                } else {
-                    stack.extend([l, r]);
-                }
-            }
-        }
-    }
-    best
-}
-
-fn sub64(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// Height where the vertical line through `(x, y)` crosses triangle `t`,

@@ -1,8 +1,8 @@
 //! The head's derived data ([`Head`]: its BVH, distance grids, support
 //! map and hull planes) kept on disk between runs. It depends only on the
-//! head mesh and [`HeadConfig`], takes a quarter of a second to build
-//! (most of `plan`'s load time on a small part), and a process engineer
-//! plans part after part with the same head.
+//! head mesh and [`HeadConfig`], its build is a large part of `plan`'s
+//! load time on a small part, and a process engineer plans part after
+//! part with the same head.
 //!
 //! An entry is `head-<hash of the input>.bin` in the cache folder
 //! ([`cache_dir`]). It holds the code's identity (`MAAMPLAN_SOURCE_ID`,

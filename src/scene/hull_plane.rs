@@ -2,9 +2,9 @@
 //!
 //! The distance grid bounds a triangle by its bounding sphere: a part
 //! triangle 1.4 mm across, 0.7 mm from the flank of a tilted head, has a
-//! sphere that reaches into the head, so it went to the exact tests (on
-//! simple_curve tilted 50° about x, ~31 M exact triangle tests, each a
-//! walk of the head BVH and ~10 triangle–triangle distances). A plane
+//! sphere that reaches into the head, so it would go to the exact tests
+//! (each a walk of the head BVH and several triangle–triangle distances),
+//! and beside a tilted head there are many such triangles. A plane
 //! settles it with three dot products: for any unit `n`, every point `x`
 //! lies at least `n · x − h(n)` from the head's convex hull, `h(n) =
 //! max_v n · v` over the head's vertices, and so at least that far from
@@ -29,14 +29,14 @@
 //! ([`super::GpuHeadParams::plane_offset`]), four floats per cell:
 //! `n.x, n.y, n.z, h` (no plane: `0, 0, 0, NO_PLANE`).
 
-use super::head::HeadBvh;
+use super::nearest::{nearest_on, HeadBvh};
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// Distance-grid cells per plane cell along each axis. Coarser cells
-/// cost less to build and to cache; finer ones fit a curved head better.
-/// On simple_curve tilted 50° about x, planes every 4 cells (1.7 mm)
-/// left 1.35 M of 31.6 M exact triangle tests, every 2 cells 0.83 M,
-/// every 8 cells 3.1 M; the query stages took 7.3, 7.3 and 8.3 s.
+/// cost less to build and to cache; finer ones fit a curved head better
+/// and leave fewer exact tests. Every 2 cells saved no time over every 4;
+/// every 8 left enough exact tests to cost more.
 pub const COARSE: u32 = 4;
 
 /// `h` of a cell without a plane: no triangle is ever this far beyond it.
@@ -82,35 +82,28 @@ pub fn hull_planes(
 /// exact. No plane when even that leaves `c`'s own bound negative by
 /// more than the cell could use.
 fn plane_facing(bvh: HeadBvh, verts: &[[f64; 3]], c: [f64; 3], inside: bool) -> [f32; 4] {
-    let (d, q, t) = super::head::nearest_on(bvh, c);
+    let (d, q, t) = nearest_on(bvh, c);
     let dir = if d > 1e-6 {
         let s = if inside { -1.0 } else { 1.0 };
-        [0, 1, 2].map(|k| s * (c[k] - q[k]) / d)
+        (DVec3::from(c) - DVec3::from(q)) * s / d
     } else {
         let t = &bvh.1[t];
-        let [a, b, e] = [t.v0, t.v1, t.v2].map(|v| v.map(|x| x as f64));
-        let (u, v) = (
-            [0, 1, 2].map(|k| b[k] - a[k]),
-            [0, 1, 2].map(|k| e[k] - a[k]),
-        );
-        let n = [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ];
-        let l = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        n.map(|x| x / l)
+        let [a, b, e] = [t.v0, t.v1, t.v2].map(|v| DVec3::from(v.map(|x| x as f64)));
+        let n = (b - a).cross(e - a);
+        n / n.length()
     };
-    if dir.iter().any(|x| !x.is_finite()) {
+    if !dir.is_finite() {
         return [0.0, 0.0, 0.0, NO_PLANE];
     }
     // The direction as stored (f32) is the one every reader uses, so
     // `h` is that direction's support, in f64 (f32 products are exact
     // there), rounded up to the next f32.
-    let n = dir.map(|x| x as f32);
-    let nd = n.map(|x| x as f64);
-    let dot = |v: &[f64; 3]| nd[0] * v[0] + nd[1] * v[1] + nd[2] * v[2];
-    let h = verts.iter().map(dot).fold(f64::NEG_INFINITY, f64::max);
+    let n = dir.to_array().map(|x| x as f32);
+    let nd = DVec3::from(n.map(|x| x as f64));
+    let h = verts
+        .iter()
+        .map(|v| nd.dot(DVec3::from(*v)))
+        .fold(f64::NEG_INFINITY, f64::max);
     [n[0], n[1], n[2], round_up(h)]
 }
 
@@ -192,7 +185,7 @@ mod tests {
             });
             let bound =
                 pl[0] as f64 * c[0] + pl[1] as f64 * c[1] + pl[2] as f64 * c[2] - pl[3] as f64;
-            let d = crate::scene::head::nearest_distance((&head.nodes, &head.triangles), c);
+            let d = crate::scene::nearest::nearest_distance((&head.nodes, &head.triangles), c);
             // The stored normal is unit within f32 rounding: the bound may
             // exceed the distance by that relative amount, which the
             // evaluators' `grid_slack` covers many times over.

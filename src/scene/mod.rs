@@ -9,12 +9,11 @@ pub mod gpu_types;
 pub mod head;
 pub mod head_cache;
 pub mod hull_plane;
+mod nearest;
 pub mod slab;
 mod stamp;
 
-pub use gpu_types::{
-    GpuHeadParams, GpuMotion, GpuMove, GpuNode, GpuParams, GpuPartNode, GpuQuery, GpuTriangle,
-};
+pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
 pub use head::{Head, HeadConfig};
 pub use head_cache::CacheOutcome;
 pub use stamp::{cutoff, stamp_of};

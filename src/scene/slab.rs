@@ -12,7 +12,7 @@
 //! ([`support_pairs`]): the test reads one word for both sides. A node
 //! lies wholly on one side of the head, farther than the margin, when its
 //! interval along `n` ends `margin` short of the head's `[−h(−n), h(n)]`
-//! (`collide::cpu::slab_clear`). Only slabs thinner than half the node's
+//! (`collide::cpu::common::slab_clear`). Only slabs thinner than half the node's
 //! radius are tested: thicker ones are rarely decisive and cost their
 //! lookups.
 //!
@@ -24,6 +24,7 @@
 
 use super::bvh::{triangle_spans, vertices_in, StampedBvh};
 use super::gpu_types::GpuPartNode;
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// Cells per cube-map face side of the head's support function.
@@ -45,12 +46,12 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
     let nodes = &bvh.nodes;
     // Normals, children first (the depth-first layout stores every child
     // after its parent).
-    let mut sum = vec![[0f64; 3]; nodes.len()];
+    let mut sum = vec![DVec3::ZERO; nodes.len()];
     for i in (0..nodes.len()).rev() {
         sum[i] = match nodes[i].leaf_range() {
             Some((first, c)) => bvh.triangles[first as usize..(first + c) as usize]
                 .iter()
-                .fold([0.0; 3], |acc, t| aligned_add(acc, area_normal(t))),
+                .fold(DVec3::ZERO, |acc, t| aligned_add(acc, area_normal(t))),
             None => {
                 let l = nodes[i].packed as usize;
                 aligned_add(sum[l], sum[l + 1])
@@ -60,8 +61,8 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
     // The normal as stored; every reader decodes it (`decoded`).
     let normal: Vec<u32> = sum.par_iter().map(|s| oct_encode(*s)).collect();
     drop(sum);
-    let decoded = |i: usize| oct_decode(unpack_snorm2x16(normal[i])).map(|x| x as f64);
-    let centre = |i: usize| spheres[i].center.map(|x| x as f64);
+    let decoded = |i: usize| DVec3::from(oct_decode(unpack_snorm2x16(normal[i])).map(|x| x as f64));
+    let centre = |i: usize| DVec3::from(spheres[i].center.map(|x| x as f64));
     let spans = triangle_spans(nodes);
     // Exact intervals of n · (x − centre) for small subtrees; the others
     // (NaN here) children first below.
@@ -74,7 +75,7 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
             }
             let (n, c) = (decoded(i), centre(i));
             vertices_in(bvh, spans[i]).fold([f64::INFINITY, f64::NEG_INFINITY], |r, v| {
-                let d = dot(n, sub(v.map(|x| x as f64), c));
+                let d = n.dot(DVec3::from(v.map(|x| x as f64)) - c);
                 [r[0].min(d), r[1].max(d)]
             })
         })
@@ -86,13 +87,9 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
         }
         let (n, c) = (decoded(i), centre(i));
         let b = &nodes[i];
-        let mid = dot(
-            n,
-            sub(
-                std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64)),
-                c,
-            ),
-        );
+        let box_centre: [f64; 3] =
+            std::array::from_fn(|k| 0.5 * (b.min[k] as f64 + b.max[k] as f64));
+        let mid = n.dot(DVec3::from(box_centre) - c);
         let half: f64 = (0..3)
             .map(|k| n[k].abs() * 0.5 * (b.max[k] as f64 - b.min[k] as f64))
             .sum();
@@ -125,32 +122,16 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
 /// slab (normal `m`, interval `r` about its centre `cc`, radius `rad`):
 /// `n = m + (n − m)`, and the second term moves a point of the child's
 /// sphere by at most `|n − m| · rad`.
-fn child_interval(
-    n: [f64; 3],
-    c: [f64; 3],
-    m: [f64; 3],
-    cc: [f64; 3],
-    r: [f64; 2],
-    rad: f32,
-) -> [f64; 2] {
-    let shift = dot(n, sub(cc, c));
-    let d = sub(n, m);
-    let tilt = dot(d, d).sqrt() * rad as f64;
+fn child_interval(n: DVec3, c: DVec3, m: DVec3, cc: DVec3, r: [f64; 2], rad: f32) -> [f64; 2] {
+    let shift = n.dot(cc - c);
+    let tilt = (n - m).length() * rad as f64;
     [shift + r[0] - tilt, shift + r[1] + tilt]
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
 /// `a + b` or `a − b`, whichever keeps `b` on `a`'s side.
-fn aligned_add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    let s = if dot(a, b) < 0.0 { -1.0 } else { 1.0 };
-    [a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2]]
+fn aligned_add(a: DVec3, b: DVec3) -> DVec3 {
+    let s = if a.dot(b) < 0.0 { -1.0 } else { 1.0 };
+    a + b * s
 }
 
 /// The largest snorm16 value.
@@ -171,7 +152,7 @@ pub fn unpack_snorm2x16(w: u32) -> [f32; 2] {
 
 /// A direction's octahedral code (two snorm16, x low), nearest; `+z`
 /// for the zero vector.
-fn oct_encode(n: [f64; 3]) -> u32 {
+fn oct_encode(n: DVec3) -> u32 {
     let l1 = n[0].abs() + n[1].abs() + n[2].abs();
     if l1.is_nan() || l1 <= 0.0 {
         return 0;
@@ -199,37 +180,9 @@ pub fn oct_decode(p: [f32; 2]) -> [f32; 3] {
 }
 
 /// Twice the triangle's area times its unit normal (f64).
-fn area_normal(t: &crate::scene::GpuTriangle) -> [f64; 3] {
-    let a = t.v0.map(|x| x as f64);
-    let b = t.v1.map(|x| x as f64);
-    let c = t.v2.map(|x| x as f64);
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ]
-}
-
-/// The cube-map cell of direction `u` (any length > 0): face `0..6`
-/// (axis `k`, `+` then `−`) and the cell in it, as one index.
-#[inline(always)]
-pub fn support_cell(u: [f32; 3]) -> u32 {
-    let a = [u[0].abs(), u[1].abs(), u[2].abs()];
-    let (k, i, j) = if a[0] >= a[1] && a[0] >= a[2] {
-        (0usize, 1usize, 2usize)
-    } else if a[1] >= a[2] {
-        (1, 2, 0)
-    } else {
-        (2, 0, 1)
-    };
-    let face = 2 * k as u32 + if u[k] < 0.0 { 1 } else { 0 };
-    let inv = 1.0 / a[k];
-    let n = SUPPORT_SIDE as f32;
-    let s = ((u[i] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
-    let t = ((u[j] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
-    (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
+fn area_normal(t: &crate::scene::GpuTriangle) -> DVec3 {
+    let [a, b, c] = [t.v0, t.v1, t.v2].map(|v| DVec3::from(v.map(|x| x as f64)));
+    (b - a).cross(c - a)
 }
 
 /// The support map as the grid buffer holds it: per cube-map cell `c`,
@@ -238,9 +191,9 @@ pub fn support_cell(u: [f32; 3]) -> u32 {
 /// and of their mirror image), each an IEEE half rounded up
 /// ([`half_at_least`]: at most 1/1024 of the value, 0.06 mm at a head's
 /// 100 mm), stored as the bits of an f32. The slab test needs both sides
-/// of the head along a direction; as two cells of f32 it read two words,
-/// and on lavapipe each read with a per-query index is a loop over the
-/// SIMD lanes (a read is 7 % of a node test's instructions there).
+/// of the head along a direction; as two cells of f32 it would read two
+/// words, and on lavapipe each read with a per-query index is a loop over
+/// the SIMD lanes.
 /// Rounding up only loosens the test; what it culls is still clear.
 pub fn support_pairs(vertices: &[[f32; 3]]) -> Vec<f32> {
     let mirrored: Vec<[f32; 3]> = vertices.iter().map(|v| v.map(|x| -x)).collect();
@@ -249,17 +202,6 @@ pub fn support_pairs(vertices: &[[f32; 3]]) -> Vec<f32> {
         .zip(&down)
         .map(|(&u, &d)| f32::from_bits(half_at_least(u) as u32 | (half_at_least(d) as u32) << 16))
         .collect()
-}
-
-/// A word of [`support_pairs`] as the kernels read it (WGSL's
-/// `unpack2x16float`, exact): the bounds of `h(u)` and `h(−u)`.
-#[inline(always)]
-pub fn support_pair(word: f32) -> [f32; 2] {
-    let w = word.to_bits();
-    [
-        half::f16::from_bits(w as u16).to_f32(),
-        half::f16::from_bits((w >> 16) as u16).to_f32(),
-    ]
 }
 
 /// The bits of the least IEEE half at least `x` (not NaN).
@@ -283,29 +225,24 @@ pub fn half_at_least(x: f32) -> u16 {
 pub fn support_map(vertices: &[[f32; 3]]) -> Vec<f32> {
     let side = SUPPORT_SIDE as usize;
     let cells = 6 * side * side;
-    let verts: Vec<([f64; 3], f64)> = vertices
+    let verts: Vec<(DVec3, f64)> = vertices
         .iter()
         .map(|v| {
-            let d = v.map(|x| x as f64);
-            (d, (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt())
+            let d = DVec3::from(v.map(|x| x as f64));
+            (d, d.length())
         })
         .collect();
     let dir = |face: usize, s: f64, t: f64| {
         let k = face / 2;
         let sign = if face.is_multiple_of(2) { 1.0 } else { -1.0 };
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        let mut u = [0.0; 3];
+        let mut u = DVec3::ZERO;
         u[k] = sign;
         u[i] = s;
         u[j] = t;
-        let l = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-        u.map(|x| x / l)
+        u / u.length()
     };
-    let angle = |a: [f64; 3], b: [f64; 3]| {
-        (a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
-            .clamp(-1.0, 1.0)
-            .acos()
-    };
+    let angle = |a: DVec3, b: DVec3| a.dot(b).clamp(-1.0, 1.0).acos();
     (0..cells)
         .into_par_iter()
         .map(|c| {
@@ -336,7 +273,7 @@ pub fn support_map(vertices: &[[f32; 3]]) -> Vec<f32> {
                     best = best.max(0.0);
                     continue;
                 }
-                let unit = v.map(|x| x / len);
+                let unit = *v / *len;
                 let a = (angle(centre, unit) - delta).max(0.0);
                 best = best.max(len * a.cos());
             }
@@ -348,21 +285,17 @@ pub fn support_map(vertices: &[[f32; 3]]) -> Vec<f32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::collide::cpu::common::{support_cell, support_pair};
+    use crate::geometry::xorshift as rng;
     use crate::scene::bvh;
     use crate::scene::GpuTriangle;
 
-    fn rng(mut h: u64) -> impl FnMut() -> f64 {
-        move || {
-            h ^= h << 13;
-            h ^= h >> 7;
-            h ^= h << 17;
-            (h >> 11) as f64 / (1u64 << 53) as f64
-        }
+    fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+        DVec3::from(a).dot(DVec3::from(b))
     }
 
     fn unit(v: [f64; 3]) -> [f64; 3] {
-        let l = dot(v, v).sqrt();
-        v.map(|x| x / l)
+        (DVec3::from(v) / DVec3::from(v).length()).to_array()
     }
 
     /// Every direction's bound is at least the true support over the
@@ -553,7 +486,10 @@ mod tests {
                             only_layers &= t.stamp <= 6 * 1600;
                             layers.insert((t.stamp - 1) / 1600);
                             for v in [t.v0, t.v1, t.v2] {
-                                let d = dot(n, sub(v.map(|x| x as f64), c));
+                                let d = dot(
+                                    n,
+                                    (DVec3::from(v.map(|x| x as f64)) - DVec3::from(c)).to_array(),
+                                );
                                 assert!(d >= lo && d <= hi, "node {i}: {d} outside [{lo}, {hi}]");
                             }
                         }
@@ -584,13 +520,13 @@ mod tests {
         let mut next = rng(7);
         for _ in 0..10_000 {
             let u = unit([next() - 0.5, next() - 0.5, next() - 0.5]);
-            let v = oct_decode(unpack_snorm2x16(oct_encode(u))).map(|x| x as f64);
+            let v = oct_decode(unpack_snorm2x16(oct_encode(DVec3::from(u)))).map(|x| x as f64);
             assert!((dot(v, v) - 1.0).abs() < 1e-6);
             // Within 1e-4 rad of u.
             assert!(dot(u, unit(v)) > 1.0 - 5e-9, "{u:?} → {v:?}");
         }
         assert_eq!(
-            oct_decode(unpack_snorm2x16(oct_encode([0.0; 3]))),
+            oct_decode(unpack_snorm2x16(oct_encode(DVec3::ZERO))),
             [0.0, 0.0, 1.0]
         );
     }

@@ -6,10 +6,13 @@
 //! `f32` rounding (and the GPU's `sin`/`cos`, which are not the CPU's),
 //! tested in `tests/gpu.rs`.
 
-use crate::scene::{GpuMotion, GpuMove, GpuQuery};
+use crate::collide::gpu::wire::{GpuMotion, GpuMove};
+use crate::scene::GpuQuery;
 
-/// The kernels' `tip_position`: the part-frame tip at machine X, Y, Z and
-/// rotary angles `t` (tilt), `c`.
+/// The part-frame tip at machine X, Y, Z and rotary angles `t` (tilt),
+/// `c`.
+///
+/// Twin: `tip_position` (`motion.wgsl`).
 pub fn tip_position(m: &GpuMotion, [x, y, z]: [f32; 3], t: f32, c: f32) -> [f32; 3] {
     let (st, ct) = (t.sin(), t.cos());
     let (sc, cc) = (c.sin(), c.cos());
@@ -47,9 +50,10 @@ pub fn tip_position(m: &GpuMotion, [x, y, z]: [f32; 3], t: f32, c: f32) -> [f32;
     }
 }
 
-/// The kernels' `pose_query`: the head at tip `p` with rotary angles `t`,
-/// `c` (each row of the query is a column of the head's rotation, the tip
-/// in the fourth place).
+/// The head at tip `p` with rotary angles `t`, `c` (each row of the
+/// query is a column of the head's rotation, the tip in the fourth place).
+///
+/// Twin: `pose_query` (`motion.wgsl`).
 pub fn pose_query(
     m: &GpuMotion,
     p: [f32; 3],
@@ -82,8 +86,9 @@ pub fn pose_query(
     }
 }
 
-/// The kernels' `sample_query`: sample `k` of `mv`, at fraction
-/// `k · inv_n` of the move.
+/// Sample `k` of `mv`, at fraction `k · inv_n` of the move.
+///
+/// Twin: `sample_query` (`motion.wgsl`).
 pub fn sample_query(m: &GpuMotion, mv: &GpuMove, k: u32) -> GpuQuery {
     let f = k as f32 * mv.inv_n;
     let lerp = |a: f32, b: f32| a + f * (b - a);
@@ -102,6 +107,8 @@ pub fn sample_query(m: &GpuMotion, mv: &GpuMove, k: u32) -> GpuQuery {
 }
 
 /// The samples of `mv` as the kernel writes them into its query slots.
+///
+/// Twin: `main` (`collide_expand.wgsl`) for one move.
 pub fn samples(m: &GpuMotion, mv: &GpuMove) -> Vec<GpuQuery> {
     (1..=mv.count).map(|k| sample_query(m, mv, k)).collect()
 }

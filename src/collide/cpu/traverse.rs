@@ -4,98 +4,44 @@
 //! triangle) pairs in the order the walk meets them. The kernel appends
 //! that list to the batch's shared candidate list (a query whose pairs do
 //! not all fit hands over the rest in a resumed pass); here it is returned
-//! whole. The cpu backend itself does not use it (its walk,
-//! [`super::first_hit`], tests each undecided triangle on the spot and
+//! whole. The entry points (`traverse_lane.wgsl`: one query an
+//! invocation; `traverse_persistent.wgsl`: lanes that take the next query)
+//! and the resumed passes only change which invocation walks a query and
+//! how many of its pairs a pass hands over, not the walk or its order, so
+//! this one function mirrors them all.
+//!
+//! The cpu backend itself does not use it (its walk,
+//! [`super::frontier`], tests each undecided triangle on the spot and
 //! stops at the first hit): it is the twin the kernel is tested against,
-//! pair by pair.
+//! pair by pair, and it stays a walk of its own because it follows the
+//! kernel step for step (children tested before they are pushed, the
+//! deeper one on top; pairs listed, not tested).
 
-use super::{
-    classify_sample, grid_sample, hull_clear, node_hull_clear, slab_clear, sphere_margin, to_head,
-    triangle_margin, SceneView, STACK_SIZE,
+use super::common::{
+    classify_sample, grid_sample, head_tri, node_hull_clear, slab_clear, sphere_margin, to_head,
+    SceneView, STACK_SIZE,
 };
-use crate::geometry::{length, sub, V3};
-use crate::scene::{GpuQuery, GpuTriangle};
+use crate::collide::gpu::wire::Walk;
+use crate::scene::GpuQuery;
 
-/// What the walk of one query found.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub struct Walk {
-    /// A node or a triangle lies wholly inside the head: the query
-    /// collides (the walk stopped there).
-    pub hit: bool,
-    /// The undecided triangles (indices into the part triangles) in walk
-    /// order, for the exact tests ([`super::exact`]).
-    pub candidates: Vec<u32>,
-}
-
-/// A triangle moved into the head frame, with its margin and what the
-/// grid and the hull plane say of it (the kernels' `HeadTri`).
-#[derive(Clone, Copy, Debug)]
-pub struct HeadTri {
-    /// Vertices, head frame.
-    pub a: V3,
-    /// See `a`.
-    pub b: V3,
-    /// See `a`.
-    pub c: V3,
-    /// The margin it must keep ([`triangle_margin`]).
-    pub margin: f32,
-    /// 1 clear, −1 colliding (wholly inside, or its centroid inside), 0
-    /// undecided (the exact tests decide).
-    pub cls: i32,
-}
-
-/// The kernels' `head_tri`: the triangle in the head frame, classified by
-/// the grid around its centroid (its sphere wholly outside or inside, or
-/// the centroid itself inside: a point of the triangle in the head), then
-/// by the hull plane facing it.
-#[inline(always)]
-pub fn head_tri(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> HeadTri {
-    let a = to_head(q, tri.v0);
-    let b = to_head(q, tri.v1);
-    let c = to_head(q, tri.v2);
-    // Multiply, not divide: WGSL division is not exactly rounded.
-    const THIRD: f32 = 1.0 / 3.0;
-    let m = [
-        (a[0] + b[0] + c[0]) * THIRD,
-        (a[1] + b[1] + c[1]) * THIRD,
-        (a[2] + b[2] + c[2]) * THIRD,
-    ];
-    let r = length(sub(a, m))
-        .max(length(sub(b, m)))
-        .max(length(sub(c, m)));
-    let margin = triangle_margin(q, a, b, c);
-    let g = grid_sample(s.head, s.grid, m);
-    let mut cls = classify_sample(s.head, &g, m, r, margin);
-    // A centroid inside the head is a point of the triangle inside it.
-    if cls == 0 && classify_sample(s.head, &g, m, 0.0, 0.0) < 0 {
-        cls = -1;
-    }
-    if cls == 0 && hull_clear(s.head, s.grid, m, [a, b, c], margin) {
-        cls = 1;
-    }
-    HeadTri {
-        a,
-        b,
-        c,
-        margin,
-        cls,
-    }
-}
-
-/// A node as the walk sees it (the kernel's `NodeTest`).
+/// A node as the walk sees it.
+///
+/// Twin: `NodeTest` (`collide_traverse.wgsl`).
 #[derive(Clone, Copy, Debug)]
 struct NodeTest {
     /// 1 settled clear (or printed later), −1 wholly inside the head, 0
     /// undecided.
     state: i32,
     /// The head grid's signed distance at its centre less its radius
-    /// ([`GridSample::v`]): of two undecided children, the one reaching
+    /// ([`GridSample::v`](super::common::GridSample::v)): of two undecided children, the one reaching
     /// deeper into the head is walked first.
     depth: f32,
 }
 
-/// The kernel's `test_node`: the node's stamp, its sphere against the
-/// grid, then its slab and the hull plane facing it.
+/// A node's stamp, its sphere against the grid, then its slab and the
+/// hull plane facing it.
+///
+/// Twin: `test_node` (`collide_traverse.wgsl`).
 #[inline(always)]
 fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     let node = s.nodes[i as usize];
@@ -129,9 +75,12 @@ fn test_node(s: &SceneView, q: &GpuQuery, i: u32) -> NodeTest {
     }
 }
 
-/// The kernel's walk for query `q`: children tested before they are
-/// pushed (only undecided ones are, the one reaching deeper into the head
-/// on top), a node or a triangle wholly inside the head ends it.
+/// The walk for query `q`: children tested before they are pushed (only
+/// undecided ones are, the one reaching deeper into the head on top), a
+/// node or a triangle wholly inside the head ends it.
+///
+/// Twin: `walk_begin`, then `walk_step` while `walk_on`
+/// (`collide_traverse.wgsl`), every pair handed over in one pass.
 pub fn walk(s: &SceneView, q: &GpuQuery) -> Walk {
     let mut out = Walk::default();
     let mut stack = [0u32; STACK_SIZE];

@@ -1,5 +1,11 @@
-//! The cpu backend's walk from the last query's frontier (the CPU's own,
-//! like the witnesses; the kernels walk from the root every time).
+//! The cpu backend's own tree walk (no WGSL twin: the kernels walk as
+//! `collide_traverse.wgsl` does, mirrored step for step by
+//! [`super::traverse`]). One walk ([`walk`]) serves both ways the backend
+//! asks: [`first_hit`] is it from the root, keeping nothing, and a
+//! worker's [`Frontier`] is it from the cut of the tree its last query
+//! stopped at. It tests each undecided triangle on the spot ([`leaf_hit`])
+//! and stops at the first hit, where the kernels hand undecided pairs to a
+//! second pass; the verdict is the same (`tests/differential.rs`).
 //!
 //! A walk that finds no hit stops at a *cut* of the tree: nodes it skipped
 //! as clear of the head (by their sphere or their slab), nodes printed
@@ -16,25 +22,61 @@
 //! the root. A cut only ever gets finer (a node walked again leaves its
 //! children in it, where a walk from the root would now skip their
 //! parent), so once it has grown by half over the last cut found from the
-//! root, the next walk starts from the root again (without that, cuts
-//! grew to ~1,600 nodes against ~180 from the root, and simple_curve took
-//! 1.7 times as long; resetting at 1.3, 1.5, 2, 3 and 5 times: 1.5 and
-//! 1.3 best, within noise of each other). A hit ends the walk early and
-//! leaves no cut.
+//! root, the next walk starts from the root again: cuts that are never
+//! reset grow to many times the root's and cost more than they save. A
+//! hit ends the walk early and leaves no cut.
 
-use super::cpu::{
-    grid_sample, leaf_hit, node_hull_gap, slab_gap, sphere_margin, to_head, SceneView, NO_TRIANGLE,
-    STACK_SIZE,
+use super::common::{
+    grid_sample, head_tri, node_hull_gap, slab_gap, sphere_margin, to_head, tri_hits_exact,
+    SceneView, STACK_SIZE,
 };
 use crate::geometry::{length, V3};
-use crate::scene::{GpuHeadParams, GpuQuery};
+use crate::scene::{GpuHeadParams, GpuQuery, GpuTriangle};
+
+/// Does the head at query `q` touch, contain or come closer than `q.margin`
+/// to anything with `stamp < cutoff`?
+pub fn query_hits(s: &SceneView, q: &GpuQuery) -> bool {
+    first_hit(s, q).is_some()
+}
+
+/// What [`first_hit`] names when a whole node lies inside the head.
+pub const NO_TRIANGLE: u32 = u32::MAX;
+
+/// [`query_hits`], naming what decided it: the first triangle (index into
+/// the part triangles) that hits, or [`NO_TRIANGLE`] when a node wholly
+/// inside the head did. [`walk`] from the root, its cut kept nowhere.
+pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
+    walk(s, q, 0, &mut [0; STACK_SIZE], &mut NoCut)
+}
+
+/// The first triangle of the leaf `first..first + count` that exists at
+/// `q`'s cutoff and hits the head.
+#[inline(always)]
+pub fn leaf_hit(s: &SceneView, q: &GpuQuery, first: u32, count: u32) -> Option<u32> {
+    (first..first + count).find(|&t| {
+        let tri = &s.tris[t as usize];
+        tri.stamp < q.cutoff && tri_hits(s, q, tri)
+    })
+}
+
+/// One existing part triangle against the head: the grid and the hull
+/// plane ([`head_tri`], as the kernel walk classifies it), then,
+/// when they cannot tell, the exact tests (as the exact kernel does).
+#[inline(always)]
+pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
+    let h = head_tri(s, q, tri);
+    if h.cls != 0 {
+        return h.cls < 0;
+    }
+    tri_hits_exact(s, h.a, h.b, h.c, h.margin)
+}
 
 /// One node of a cut: its index, how far its sphere (or slab) is known
 /// to be from the head (`< 0`: nothing known — walk it again), and the
 /// largest distance of its points from the tip (`|c| + r`, head frame),
 /// both at the cut's pose.
 #[derive(Clone, Copy, Debug)]
-struct Cut {
+pub(super) struct Cut {
     node: u32,
     clear: f32,
     reach: f32,
@@ -53,8 +95,8 @@ pub struct Frontier {
 }
 
 impl Frontier {
-    /// [`super::cpu::first_hit`] for `q`, from the last cut when there is
-    /// one; the verdict is the same.
+    /// [`first_hit`] for `q`, from the last cut when there is one; the
+    /// verdict is the same.
     pub fn first_hit(&mut self, s: &SceneView, q: &GpuQuery) -> Option<u32> {
         self.next.clear();
         let mut stack = [0u32; STACK_SIZE];
@@ -134,14 +176,40 @@ fn motion(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3]) -> (f32, f32) {
     (t.sqrt() * up, r.sqrt() * up + 1e-6)
 }
 
-/// The walk of [`super::cpu::first_hit`] from node `root`, adding what it
-/// stops at to `cut`.
+/// Where a walk puts the nodes it stops at: a worker's next cut, or
+/// nowhere ([`first_hit`]).
+trait CutSink {
+    /// Keep `cut`.
+    fn push(&mut self, cut: Cut);
+}
+
+impl CutSink for Vec<Cut> {
+    #[inline(always)]
+    fn push(&mut self, cut: Cut) {
+        Vec::push(self, cut);
+    }
+}
+
+/// A walk's cut, kept nowhere.
+struct NoCut;
+
+impl CutSink for NoCut {
+    #[inline(always)]
+    fn push(&mut self, _: Cut) {}
+}
+
+/// The tree walk from node `root` for query `q`, depth first: a node
+/// printed after the cutoff, or clear of the head by its sphere, its slab
+/// or the hull plane facing it, is skipped; a node wholly inside the head
+/// is a hit ([`NO_TRIANGLE`]); a leaf's existing triangles are tested on
+/// the spot ([`leaf_hit`]). The first hit ends the walk; until then what
+/// it stops at goes to `cut`.
 fn walk(
     s: &SceneView,
     q: &GpuQuery,
     root: u32,
     stack: &mut [u32; STACK_SIZE],
-    cut: &mut Vec<Cut>,
+    cut: &mut impl CutSink,
 ) -> Option<u32> {
     stack[0] = root;
     let mut sp = 1usize;
@@ -202,7 +270,7 @@ fn walk(
 }
 
 /// The grid's verdict on the sphere `(c, r)` (head frame), as
-/// [`super::cpu::classify`] reads it: whether it lies wholly inside the
+/// [`super::common::classify`] reads it: whether it lies wholly inside the
 /// head, and a lower bound on its distance from the head when it lies
 /// outside (`v − |c − centre| − r`, or the head box's distance beyond
 /// the grids; negative when nothing is known).
@@ -227,29 +295,23 @@ fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::collide::cpu::first_hit;
+    use crate::collide::cpu::{exact::pair_hits, traverse};
 
     use crate::default_job::scene;
 
-    fn xorshift(mut h: u64) -> impl FnMut() -> f32 {
-        move || {
-            h ^= h << 13;
-            h ^= h >> 7;
-            h ^= h << 17;
-            (h >> 40) as f32 / (1u64 << 24) as f32
-        }
-    }
-
-    /// Every verdict from a cut is the walk from the root's, over the
-    /// waypoints in print order (small steps) at margins and slopes that
-    /// change from query to query, and through jumps: back and forth in
-    /// the print (the cutoff falls as well as rises) and to far poses.
-    /// And the cut is what saves the work: most queries carry nodes over.
+    /// Every verdict from a cut is the walk from the root's, and the
+    /// kernels' (their mirrors: the walk's hit, or a pair it hands over
+    /// hitting by the exact tests), over the waypoints in print order
+    /// (small steps) at margins and slopes that change from query to
+    /// query, and through jumps: back and forth in the print (the cutoff
+    /// falls as well as rises) and to far poses. And the cut is what saves
+    /// the work: most queries carry nodes over.
     #[test]
     fn walks_from_the_last_cut_give_the_roots_verdicts() {
         let scene = scene();
         let view = SceneView::new(&scene);
-        let mut next = xorshift(0x5eed_1234_abcd_0001);
+        let mut uniform = crate::geometry::xorshift(0x5eed_1234_abcd_0001);
+        let mut next = || uniform() as f32;
         let mut f = Frontier::default();
         let (mut hits, mut asked) = (0, 0);
         let n = scene.waypoint_queries.len();
@@ -275,13 +337,14 @@ mod tests {
                 }
             }
             let plain = first_hit(&view, &q).is_some();
+            let w = traverse::walk(&view, &q);
+            let kernels = w.hit || w.candidates.iter().any(|&t| pair_hits(&view, &q, t));
+            assert_eq!(plain, kernels, "query {step}: the kernels' verdict");
             assert_eq!(f.first_hit(&view, &q).is_some(), plain, "query {step}");
             hits += plain as usize;
             asked += 1;
         }
         assert!(hits > 100 && hits < asked - 100, "{hits} hits of {asked}");
-        // 14,451 carried over (54,008 before the tree was built lifted by
-        // layer: its cuts are smaller).
         assert!(f.carried > 5_000, "{} cut nodes carried", f.carried);
     }
 }
