@@ -9,9 +9,11 @@ use crate::geometry::Mesh;
 use crate::toolpath::{Layer, Toolpath, Waypoint};
 use std::f32::consts::PI;
 
-/// A toolpath with its head and platform.
+/// A job's inputs in memory, before any scene is built: a toolpath with
+/// its head and platform ([`crate::job::LoadedJob`] is a job loaded from
+/// files, conventions applied and scene built).
 #[derive(Clone, Debug)]
-pub struct Job {
+pub struct JobInputs {
     /// The toolpath, layer surfaces included.
     pub toolpath: Toolpath,
     /// The head in its own frame.
@@ -27,8 +29,8 @@ const LAYERS: usize = 4;
 const THETA_MAX: f32 = 88.0 * PI / 180.0;
 const SPACING: f32 = 1.5;
 
-/// The default job.
-pub fn job() -> Job {
+/// The default job's inputs.
+pub fn job() -> JobInputs {
     let layers = (0..LAYERS)
         .map(|k| {
             let r = R0 + k as f32 * LAYER_HEIGHT;
@@ -39,7 +41,7 @@ pub fn job() -> Job {
             }
         })
         .collect();
-    Job {
+    JobInputs {
         toolpath: Toolpath { layers },
         head: cone_head(20.0, 20.0, 30.0, 64),
         platform: box_mesh([-100.0, -100.0, -5.0], [100.0, 100.0, 0.0]),

@@ -533,7 +533,7 @@ fn asked_of(q: &GpuQuery, tri: &[[f64; 3]; 3]) -> f64 {
     q.margin as f64 + q.slope as f64 * reach
 }
 
-fn tilted_simple_curve() -> maamplan::job::Job {
+fn tilted_simple_curve() -> maamplan::job::LoadedJob {
     simple_curve_job_tilted(Some(50.0))
 }
 

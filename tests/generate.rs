@@ -12,7 +12,7 @@ use maamplan::generate::{isoplanar, slice, Fill, IsoplanarOptions, SliceOptions}
 use maamplan::geometry::point_triangle_distance::point_triangle_distance;
 use maamplan::geometry::Mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::{load_toolpath, mesh_obj, toolpath_files};
+use maamplan::io::toolpath_folder::{load_toolpath, mesh_obj, toolpath_files};
 use maamplan::io::Placement;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{plan, PlanOptions};

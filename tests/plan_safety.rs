@@ -9,7 +9,7 @@ use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::geometry::Mesh;
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::{mesh_obj, toolpath_files};
+use maamplan::io::toolpath_folder::{mesh_obj, toolpath_files};
 use maamplan::kinematics::{orientation, Axes, Machine};
 use maamplan::plan::{head_reach, plan, Plan, PlanOptions, Skip};
 use maamplan::prove::{displacement_bound, MoveSpec, Prover};

@@ -6,7 +6,7 @@ use super::{machine_and_margin, progress, write_json, BackendKind, SceneArgs, Us
 use anyhow::Result;
 use clap::Args;
 use maamplan::io::plan_csv::read_plan;
-use maamplan::job::Job;
+use maamplan::job::LoadedJob;
 use maamplan::kinematics::{Axes, Machine};
 use maamplan::plan::layer_reading::NearestLayer;
 use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
@@ -204,7 +204,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
 /// The poses of a written plan's rows and the printing moves between
 /// consecutive visited rows (split for the tip tolerance exactly as `plan`
 /// writes them).
-fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) -> Result<Verdicts> {
+fn check_plan(job: &LoadedJob, m: &Machine, prover: &Prover, csv: &std::path::Path) -> Result<Verdicts> {
     let rows = read_plan(csv)?;
     let n = job.toolpath.waypoint_count();
     if rows.len() != n {

@@ -8,7 +8,7 @@ use clap::Args;
 use maamplan::generate::{isoplanar, IsoplanarOptions};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::toolpath_files;
+use maamplan::io::toolpath_folder::toolpath_files;
 use maamplan::kinematics::{load_machine, Machine};
 use serde_json::json;
 use std::path::PathBuf;

@@ -17,7 +17,7 @@ use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
 use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
 use maamplan::io::Placement;
-use maamplan::job::{Job, JobError, JobSpec};
+use maamplan::job::{JobError, JobSpec, LoadedJob};
 use maamplan::scene::Scene;
 use maamplan::toolpath::Toolpath;
 use std::path::PathBuf;
@@ -95,16 +95,16 @@ pub struct SceneArgs {
 
 impl SceneArgs {
     /// Load the inputs (or the built-in example) and build the scene.
-    pub fn load(&self) -> Result<Job> {
+    pub fn load(&self) -> Result<LoadedJob> {
         Ok(self.load_beside(|_| ())?.0)
     }
 
     /// [`SceneArgs::load`], running `beside` on the toolpath while the
-    /// scene is built ([`Job::load_beside`]).
+    /// scene is built ([`LoadedJob::load_beside`]).
     pub fn load_beside<T: Send>(
         &self,
         beside: impl FnOnce(&Toolpath) -> T + Send,
-    ) -> Result<(Job, T)> {
+    ) -> Result<(LoadedJob, T)> {
         if let Some(t) = self.tilt {
             if !t.is_finite() {
                 return Err(UsageError("--tilt must be a finite angle (degrees)".into()).into());
@@ -122,7 +122,7 @@ impl SceneArgs {
             keep_normals: self.keep_normals,
             tilt_deg: self.tilt,
         };
-        Job::load_beside(&spec, beside).map_err(|e| match e {
+        LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),
             e => anyhow::Error::from(e),
         })

@@ -407,7 +407,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
 /// What `plan` prints when it is done: warnings, flipped layers, the
 /// input and plan side by side, and where it wrote.
 fn print_summary(
-    job: &maamplan::job::Job,
+    job: &maamplan::job::LoadedJob,
     p: &maamplan::plan::Plan,
     flipped: &[String],
     (seconds, t0): (f64, Instant),

@@ -8,7 +8,7 @@ use clap::{Args, ValueEnum};
 use maamplan::generate::{slice, Fill, SliceOptions};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::toolpath_files;
+use maamplan::io::toolpath_folder::toolpath_files;
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;

@@ -11,7 +11,7 @@ pub mod number;
 pub mod obj_plain;
 pub mod output;
 pub mod plan_csv;
-pub mod toolpath;
+pub mod toolpath_folder;
 
 use std::path::{Path, PathBuf};
 

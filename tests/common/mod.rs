@@ -213,15 +213,15 @@ pub fn data() -> std::path::PathBuf {
 /// simple_curve loaded as the CLI loads it (the data set's conventions
 /// applied), with the data-set head and platform, placed as the original
 /// software did (z + 40.5 mm).
-pub fn simple_curve_job() -> maamplan::job::Job {
+pub fn simple_curve_job() -> maamplan::job::LoadedJob {
     simple_curve_job_tilted(None)
 }
 
 /// [`simple_curve_job`] with every nozzle direction rotated by `tilt_deg`
 /// about x first (as `--tilt`).
-pub fn simple_curve_job_tilted(tilt_deg: Option<f64>) -> maamplan::job::Job {
+pub fn simple_curve_job_tilted(tilt_deg: Option<f64>) -> maamplan::job::LoadedJob {
     let d = data();
-    maamplan::job::Job::load(&maamplan::job::JobSpec {
+    maamplan::job::LoadedJob::load(&maamplan::job::JobSpec {
         toolpath: Some(d.join("simple_curve")),
         head: Some(d.join("extruderHead.obj")),
         platform: Some(d.join("printingPlatform.obj")),
@@ -243,7 +243,7 @@ pub fn simple_curve() -> (Toolpath, Scene) {
 }
 
 /// The embedded default job and its scene.
-pub fn default_scene() -> (maamplan::default_job::Job, Scene) {
+pub fn default_scene() -> (maamplan::default_job::JobInputs, Scene) {
     let job = maamplan::default_job::job();
     let scene = Scene::build(
         &job.toolpath,
