@@ -43,7 +43,7 @@ pub fn job() -> JobInputs {
         .collect();
     JobInputs {
         toolpath: Toolpath { layers },
-        head: cone_head(20.0, 20.0, 30.0, 64),
+        head: default_head(),
         platform: box_mesh([-100.0, -100.0, -5.0], [100.0, 100.0, 0.0]),
     }
 }
@@ -109,6 +109,12 @@ fn shell_surface(r: f32) -> Mesh {
         }
     }
     m
+}
+
+/// The head used where none is given: a 45° cone, 20 mm radius, 30 mm
+/// tall, like the data set's.
+pub fn default_head() -> Mesh {
+    cone_head(20.0, 20.0, 30.0, 64)
 }
 
 /// A closed head: a cone of half-angle `atan(radius / cone_height)` from

@@ -138,21 +138,14 @@ impl LoadedJob {
         };
         let head = match &spec.head {
             Some(p) => load_mesh(p)?,
-            None => default_head.unwrap_or_else(|| default_job::cone_head(20.0, 20.0, 30.0, 64)),
+            None => default_head.unwrap_or_else(default_job::default_head),
         };
         let platform = match &spec.platform {
             Some(p) => load_mesh(p)?,
             None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
         };
-        let cfg = SceneConfig {
-            head: HeadConfig {
-                tip_clearance: spec.clearance,
-                ..HeadConfig::default()
-            },
-            max_edge: None,
-            head_cache: true,
-        };
-        let (scene, made) = rayon::join(
+        let cfg = scene_config(spec.clearance);
+        let (scene, beside_result) = rayon::join(
             || Scene::build(&toolpath, &head, &platform, &cfg),
             || beside(&toolpath),
         );
@@ -170,7 +163,7 @@ impl LoadedJob {
             flipped_layers,
             seconds: t0.elapsed().as_secs_f64(),
         };
-        Ok((job, made))
+        Ok((job, beside_result))
     }
 
     /// Names of the flipped layers.
@@ -179,6 +172,19 @@ impl LoadedJob {
             .iter()
             .map(|&k| self.toolpath.layers[k].name.clone())
             .collect()
+    }
+}
+
+/// The scene settings of a loaded job: contact within `clearance` of the
+/// tip, along the nozzle, ignored; the head's data cached between runs.
+pub fn scene_config(clearance: f32) -> SceneConfig {
+    SceneConfig {
+        head: HeadConfig {
+            tip_clearance: clearance,
+            ..HeadConfig::default()
+        },
+        max_edge: None,
+        head_cache: true,
     }
 }
 

@@ -20,6 +20,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod check;
 pub mod collide;
 pub mod default_job;
 pub mod generate;

@@ -334,7 +334,7 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
 }
 
 pub use super::gcode_read::{
-    axes_of, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove,
+    axes_of, load_program, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove,
 };
 
 #[cfg(test)]

@@ -13,7 +13,9 @@
 //! finite number, a move before every axis has a position (home with
 //! `G28 X… Y… Z… B… C…` or give every axis on the first move).
 
+use super::InputError;
 use crate::kinematics::{linear_axes, tip_position, Axes, Machine};
+use std::path::Path;
 
 /// A line the reader cannot take.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -118,6 +120,26 @@ struct State {
     inverse_time: bool,
     tcp: bool,
     tool: u32,
+}
+
+/// The motion lines of the program in the file at `path` ([`read_program`]),
+/// every problem an [`InputError`] naming the file: unreadable, a line the
+/// reader cannot take, or no motion at all.
+pub fn load_program(path: &Path, m: &Machine) -> Result<Vec<GcodeMove>, InputError> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        InputError::file(
+            path,
+            format!("cannot read the program ({e}): check the path"),
+        )
+    })?;
+    let moves = read_program(&text, m).map_err(|e| InputError::at(path, e.line, e.msg))?;
+    if moves.is_empty() {
+        return Err(InputError::file(
+            path,
+            "no G0/G1 motion found: is this a G-code program?",
+        ));
+    }
+    Ok(moves)
 }
 
 /// Every motion line of `text` for machine `m` (dialect letters, signs and

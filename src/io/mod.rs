@@ -1,4 +1,5 @@
-//! Reading inputs (toolpaths, meshes) and writing outputs atomically.
+//! Reading inputs (toolpaths, meshes, machine programs) and writing outputs
+//! (programs, plan.csv, toolpath folders) atomically.
 //!
 //! Every input problem is an [`InputError`] whose message is one line naming
 //! the file, the line (or facet) and what to do about it.
