@@ -4,6 +4,9 @@
 //! set's. Near the rim the surface normals are almost horizontal, so the
 //! plain orientations drive the head into the platform; at the pole they
 //! are vertical, the singular region of a B/C rotary-table machine.
+//!
+//! The meshes it is made of (a cone or star-shaped head, a box, a height
+//! field) are public, for examples and tests.
 
 use crate::geometry::Mesh;
 use crate::toolpath::{Layer, Toolpath, Waypoint};
@@ -151,6 +154,36 @@ pub fn star_head(radii: &[f32], cone_height: f32, height: f32, shift: [f32; 2]) 
         m.triangles.push([lo(j), lo(j + 1), hi(j + 1)]);
         m.triangles.push([lo(j), hi(j + 1), hi(j)]);
         m.triangles.push([1, hi(j), hi(j + 1)]);
+    }
+    m
+}
+
+/// A surface over `[-half_width, half_width]²` with heights `height(x, y)`:
+/// `cells` × `cells` squares, each split into four triangles around a
+/// vertex at its centre (so the mesh is symmetric under both mirrors),
+/// normals up.
+pub fn height_field(cells: usize, half_width: f32, height: impl Fn(f32, f32) -> f32) -> Mesh {
+    let (n, a) = (cells, half_width);
+    let mut m = Mesh::default();
+    let h = 2.0 * a / n as f32;
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (-a + i as f32 * h, -a + j as f32 * h);
+            m.vertices.push([x, y, height(x, y)]);
+        }
+    }
+    let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (-a + (i as f32 + 0.5) * h, -a + (j as f32 + 0.5) * h);
+            let c = m.vertices.len() as u32;
+            m.vertices.push([x, y, height(x, y)]);
+            let (p00, p10, p11, p01) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            m.triangles.push([p00, p10, c]);
+            m.triangles.push([p10, p11, c]);
+            m.triangles.push([p11, p01, c]);
+            m.triangles.push([p01, p00, c]);
+        }
     }
     m
 }

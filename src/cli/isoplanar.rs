@@ -71,7 +71,7 @@ pub fn run(a: IsoplanarArgs) -> Result<()> {
         "height_mm": opts.height,
         "chord_error_mm": opts.chord_error,
         "theta_star_deg": r.theta_star_deg,
-        "drive_plane_normal": [r.theta_star_deg.to_radians().sin(), r.theta_star_deg.to_radians().cos(), 0.0],
+        "drive_plane_normal": r.drive_plane_normal(),
         "curve": r.curve,
         "curves": r.side_steps.len() + 1,
         "side_steps_mm": r.side_steps,
