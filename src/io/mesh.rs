@@ -6,6 +6,7 @@
 
 use super::{read_to_string, InputError};
 use crate::geometry::Mesh;
+use glam::{Mat4, Vec3};
 use std::path::Path;
 
 /// Load a triangle mesh from `.obj`, `.stl`, `.gltf` or `.glb`.
@@ -276,12 +277,13 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
         .map_err(|e| InputError::file(path, format!("invalid glTF ({e}): re-export the mesh")))?;
     let mut mesh = Mesh::default();
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
-    let mut stack: Vec<(gltf::Node, [[f32; 4]; 4])> = match &scene {
-        Some(s) => s.nodes().map(|n| (n, IDENTITY)).collect(),
+    let mut stack: Vec<(gltf::Node, Mat4)> = match &scene {
+        Some(s) => s.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
         None => Vec::new(),
     };
     while let Some((node, parent)) = stack.pop() {
-        let m = mul(parent, node.transform().matrix());
+        // Column-major, as glTF stores it.
+        let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if let Some(gm) = node.mesh() {
             for prim in gm.primitives() {
                 if prim.mode() != gltf::mesh::Mode::Triangles {
@@ -293,7 +295,7 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
                 };
                 let base = mesh.vertices.len() as u32;
                 for p in pos {
-                    let q = apply(m, p);
+                    let q = m.transform_point3(Vec3::from(p)).to_array();
                     if q.iter().any(|c| !c.is_finite()) {
                         return Err(InputError::file(
                             path,
@@ -327,26 +329,4 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
         stack.extend(node.children().map(|c| (c, m)));
     }
     Ok(mesh)
-}
-
-const IDENTITY: [[f32; 4]; 4] = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
-
-/// Column-major 4×4 product `a * b`.
-fn mul(a: [[f32; 4]; 4], b: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
-    let mut r = [[0.0; 4]; 4];
-    for (c, col) in r.iter_mut().enumerate() {
-        for (row, v) in col.iter_mut().enumerate() {
-            *v = (0..4).map(|k| a[k][row] * b[c][k]).sum();
-        }
-    }
-    r
-}
-
-fn apply(m: [[f32; 4]; 4], p: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|row| m[0][row] * p[0] + m[1][row] * p[1] + m[2][row] * p[2] + m[3][row])
 }
