@@ -113,28 +113,15 @@ pub fn input_poses(
     prover: &Prover,
 ) -> Result<Verdicts, CollideError> {
     let toolpath = &job.toolpath;
-    let pos: Vec<[f64; 3]> = toolpath
-        .iter()
-        .map(|(_, w)| w.pos.map(|x| x as f64))
-        .collect();
-    let dirs: Vec<[f64; 3]> = toolpath
-        .iter()
-        .map(|(_, w)| w.dir.map(|x| x as f64))
-        .collect();
     let axes = input_axes(
         machine,
-        &pos,
-        &dirs,
+        &toolpath.positions(),
+        &toolpath.directions(),
         &runs(toolpath, PlanOptions::default().jump),
     );
-    let items: Vec<(Axes, u32)> = axes
-        .iter()
-        .enumerate()
-        .map(|(g, a)| (*a, cutoff(g)))
-        .collect();
-    let hits = prover.poses_at(&items, prover.margin)?;
+    let axes: Vec<Option<Axes>> = axes.into_iter().map(Some).collect();
     Ok(Verdicts {
-        poses: hits.into_iter().map(Some).collect(),
+        poses: poses(&axes, prover)?,
         moves: vec![None; toolpath.waypoint_count()],
     })
 }
@@ -156,7 +143,7 @@ pub fn written_plan(
         });
     }
     let axes: Vec<Option<Axes>> = rows.iter().map(row_axes).collect();
-    let poses = plan_poses(&axes, prover)?;
+    let poses = poses(&axes, prover)?;
     let moves = plan_moves(job, machine, prover, rows, &axes)?;
     Ok(Verdicts { poses, moves })
 }
@@ -170,8 +157,9 @@ fn row_axes(row: &PlanRow) -> Option<Axes> {
     })
 }
 
-/// Each visited row's pose checked against the material before it.
-fn plan_poses(axes: &[Option<Axes>], prover: &Prover) -> Result<Vec<Option<bool>>, CollideError> {
+/// Each pose (`None`: none there) checked against the material printed
+/// before its waypoint.
+fn poses(axes: &[Option<Axes>], prover: &Prover) -> Result<Vec<Option<bool>>, CollideError> {
     let items: Vec<(usize, Axes)> = axes
         .iter()
         .enumerate()

@@ -219,9 +219,9 @@ pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
     }
 }
 
-/// The default job's scene at the default settings (for tests).
-#[cfg(test)]
-pub(crate) fn scene() -> crate::scene::Scene {
+/// The default job's scene at the default settings (for examples,
+/// benches and tests).
+pub fn scene() -> crate::scene::Scene {
     let job = job();
     crate::scene::Scene::build(
         &job.toolpath,
@@ -229,7 +229,7 @@ pub(crate) fn scene() -> crate::scene::Scene {
         &job.platform,
         &crate::scene::SceneConfig::default(),
     )
-    .unwrap()
+    .expect("the default job's scene builds")
 }
 
 #[cfg(test)]

@@ -121,77 +121,65 @@ fn check_obj(path: &Path, text: &str) -> Result<(), InputError> {
         .count() as i64;
     let mut seen = 0i64;
     for (i, line) in text.lines().enumerate() {
-        let n = i + 1;
         let mut it = line.split_whitespace();
-        match it.next() {
+        let checked = match it.next() {
             Some("v") => {
                 seen += 1;
-                let vals: Vec<&str> = it.collect();
-                if vals.len() < 3 {
-                    return Err(InputError::at(
-                        path,
-                        n,
-                        format!(
-                            "vertex has {} coordinates, needs 3: fix this line",
-                            vals.len()
-                        ),
-                    ));
-                }
-                for v in &vals[..3] {
-                    match v.parse::<f32>() {
-                        Ok(x) if x.is_finite() => {}
-                        Ok(_) => {
-                            return Err(InputError::at(
-                                path,
-                                n,
-                                format!(
-                                "vertex coordinate {v}: every coordinate must be a finite number"
-                            ),
-                            ))
-                        }
-                        Err(_) => {
-                            return Err(InputError::at(
-                                path,
-                                n,
-                                format!("vertex coordinate '{v}' is not a number: fix this line"),
-                            ))
-                        }
-                    }
-                }
+                check_vertex(it.collect())
             }
-            Some("f") => {
-                let refs: Vec<&str> = it.collect();
-                if refs.len() < 3 {
-                    return Err(InputError::at(
-                        path,
-                        n,
-                        format!(
-                            "face has {} vertices, needs at least 3: fix this line",
-                            refs.len()
-                        ),
-                    ));
-                }
-                for r in refs {
-                    let idx = r.split('/').next().unwrap_or("");
-                    let k: i64 = idx.parse().map_err(|_| {
-                        InputError::at(
-                            path,
-                            n,
-                            format!("face index '{r}' is not an integer: fix this line"),
-                        )
-                    })?;
-                    // Negative indices count back from the vertices so far.
-                    let resolved = if k < 0 { seen + k + 1 } else { k };
-                    if k == 0 || resolved < 1 || resolved > vertex_count {
-                        return Err(InputError::at(
-                            path,
-                            n,
-                            format!("face index {k} is out of range (the file has {vertex_count} vertices): fix the face or add the vertex"),
-                        ));
-                    }
-                }
+            Some("f") => check_face(it.collect(), seen, vertex_count),
+            _ => Ok(()),
+        };
+        checked.map_err(|msg| InputError::at(path, i + 1, msg))?;
+    }
+    Ok(())
+}
+
+/// A `v` statement's coordinates: at least three, the first three finite
+/// numbers.
+fn check_vertex(vals: Vec<&str>) -> Result<(), String> {
+    if vals.len() < 3 {
+        return Err(format!(
+            "vertex has {} coordinates, needs 3: fix this line",
+            vals.len()
+        ));
+    }
+    for v in &vals[..3] {
+        match v.parse::<f32>() {
+            Ok(x) if x.is_finite() => {}
+            Ok(_) => {
+                return Err(format!(
+                    "vertex coordinate {v}: every coordinate must be a finite number"
+                ))
             }
-            _ => {}
+            Err(_) => {
+                return Err(format!(
+                    "vertex coordinate '{v}' is not a number: fix this line"
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// An `f` statement's vertex references: at least three, each naming one
+/// of the file's `vertex_count` vertices (a negative one counts back from
+/// the `seen` so far).
+fn check_face(refs: Vec<&str>, seen: i64, vertex_count: i64) -> Result<(), String> {
+    if refs.len() < 3 {
+        return Err(format!(
+            "face has {} vertices, needs at least 3: fix this line",
+            refs.len()
+        ));
+    }
+    for r in refs {
+        let idx = r.split('/').next().unwrap_or("");
+        let k: i64 = idx
+            .parse()
+            .map_err(|_| format!("face index '{r}' is not an integer: fix this line"))?;
+        let resolved = if k < 0 { seen + k + 1 } else { k };
+        if k == 0 || resolved < 1 || resolved > vertex_count {
+            return Err(format!("face index {k} is out of range (the file has {vertex_count} vertices): fix the face or add the vertex"));
         }
     }
     Ok(())

@@ -11,7 +11,7 @@ use crate::kinematics::Machine;
 use crate::plan::Plan;
 use crate::simulate::{MoveReport, Simulation};
 use plotters::coord::types::RangedCoordf64;
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use std::path::Path;
@@ -45,6 +45,20 @@ type DrawResult = Result<(), String>;
 
 fn err<E: std::fmt::Debug>(e: E) -> String {
     format!("{e:?}")
+}
+
+/// The series' legend, boxed, at `position` (plotters puts it at the
+/// middle of the right edge unless told otherwise).
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    c: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> DrawResult {
+    c.configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
 }
 
 /// One figure drawn into an SVG string of the report's size.
@@ -297,11 +311,7 @@ fn bc_lines<DB: DrawingBackend>(
             .label(l.0)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 12, y)], color));
         }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        legend(&mut c, SeriesLabelPosition::MiddleRight)?;
     }
     root.present().map_err(err)
 }
@@ -389,12 +399,7 @@ fn histogram<DB: DrawingBackend>(
         .label(label)
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
+    legend(&mut c, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(err)
 }
 
@@ -455,11 +460,7 @@ fn bars<DB: DrawingBackend>(
         .label(label)
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    c.configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
+    legend(&mut c, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(err)
 }
 
@@ -586,11 +587,7 @@ fn line_chart<DB: DrawingBackend>(
     .map_err(err)?
     .label("program")
     .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], PLAN));
-    c.configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
+    legend(&mut c, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(err)
 }
 
