@@ -181,13 +181,13 @@ impl BackendKind {
     /// tuning flags).
     pub fn build_with<'a>(
         self,
-        opening: Opening,
+        mut opening: Opening,
         scene: &'a Scene,
         announce: bool,
         gpu: GpuOptions,
     ) -> Result<Box<dyn Backend + 'a>> {
-        let context = || -> Result<Option<GpuContext>, maamplan::collide::CollideError> {
-            match opening.0 {
+        let mut context = || -> Result<Option<GpuContext>, maamplan::collide::CollideError> {
+            match opening.0.take() {
                 Some(thread) => thread.join().expect("opening the GPU panicked"),
                 None => GpuContext::open(self == BackendKind::Auto),
             }
@@ -240,6 +240,17 @@ impl Opening {
     /// Nothing opened ahead (a caller with no loading to overlap).
     pub fn none() -> Self {
         Opening(None)
+    }
+}
+
+impl Drop for Opening {
+    /// A run that ends before it builds its backend (an input error)
+    /// waits for the driver to finish opening: leaving the process while
+    /// another thread is inside the driver's start crashes it.
+    fn drop(&mut self) {
+        if let Some(thread) = self.0.take() {
+            let _ = thread.join();
+        }
     }
 }
 
