@@ -65,8 +65,8 @@ pub struct Axes {
 
 /// Wrap an angle into (−π, π].
 pub fn wrap(a: f64) -> f64 {
-    // `%` is a software fmod (1 % of the tilted row's CPU); it returns an
-    // angle within a turn unchanged, and most are.
+    // `%` is a software fmod, dear in the planner's inner loops; it
+    // returns an angle within a turn unchanged, and most are.
     let mut a = if a.abs() < 2.0 * PI {
         a
     } else {

@@ -220,9 +220,9 @@ fn bc_chart<DB: DrawingBackend>(
     plan: &Plan,
     layer: usize,
 ) -> DrawResult {
-    // One run of waypoints, not a pass over all of them per chart
-    // (dome_cut: 169 charts drawn twice over 176 k waypoints had been a
-    // third of the report's time).
+    // The layer's waypoints are one run of the plan, found by bisection,
+    // not a pass over every waypoint per chart: a part of hundreds of
+    // layers draws hundreds of charts, each twice (SVG and PNG).
     let (w, idx) = (&plan.waypoints, plan.layer_waypoints(layer));
     let bc = |a: &crate::kinematics::Axes| [a.tilt.to_degrees(), a.c.to_degrees()];
     let inp: Vec<[f64; 2]> = plan.input_axes[idx.clone()].iter().map(bc).collect();
