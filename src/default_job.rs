@@ -13,7 +13,7 @@ use crate::toolpath::{Layer, Toolpath, Waypoint};
 use std::f32::consts::PI;
 
 /// A job's inputs in memory, before any scene is built: a toolpath with
-/// its head and platform ([`crate::job::LoadedJob`] is a job loaded from
+/// its head and platform (`job::LoadedJob` is a job loaded from
 /// files, conventions applied and scene built).
 #[derive(Clone, Debug)]
 pub struct JobInputs {
