@@ -7,17 +7,10 @@ use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{plan, PlanOptions};
-use maamplan::scene::{Scene, SceneConfig};
 
 fn planner(c: &mut Criterion) {
     let job = default_job::job();
-    let scene = Scene::build(
-        &job.toolpath,
-        &job.head,
-        &job.platform,
-        &SceneConfig::default(),
-    )
-    .expect("default scene");
+    let scene = default_job::scene();
     let cpu = CpuBackend::new(&scene);
     let machine = Machine::default();
     let mut g = c.benchmark_group("planner");

@@ -4,14 +4,19 @@
 //! set's. Near the rim the surface normals are almost horizontal, so the
 //! plain orientations drive the head into the platform; at the pole they
 //! are vertical, the singular region of a B/C rotary-table machine.
+//!
+//! The meshes it is made of (a cone or star-shaped head, a box, a height
+//! field) are public, for examples and tests.
 
 use crate::geometry::Mesh;
 use crate::toolpath::{Layer, Toolpath, Waypoint};
 use std::f32::consts::PI;
 
-/// A toolpath with its head and platform.
+/// A job's inputs in memory, before any scene is built: a toolpath with
+/// its head and platform (`job::LoadedJob` is a job loaded from
+/// files, conventions applied and scene built).
 #[derive(Clone, Debug)]
-pub struct Job {
+pub struct JobInputs {
     /// The toolpath, layer surfaces included.
     pub toolpath: Toolpath,
     /// The head in its own frame.
@@ -27,8 +32,8 @@ const LAYERS: usize = 4;
 const THETA_MAX: f32 = 88.0 * PI / 180.0;
 const SPACING: f32 = 1.5;
 
-/// The default job.
-pub fn job() -> Job {
+/// The default job's inputs.
+pub fn job() -> JobInputs {
     let layers = (0..LAYERS)
         .map(|k| {
             let r = R0 + k as f32 * LAYER_HEIGHT;
@@ -39,9 +44,9 @@ pub fn job() -> Job {
             }
         })
         .collect();
-    Job {
+    JobInputs {
         toolpath: Toolpath { layers },
-        head: cone_head(20.0, 20.0, 30.0, 64),
+        head: default_head(),
         platform: box_mesh([-100.0, -100.0, -5.0], [100.0, 100.0, 0.0]),
     }
 }
@@ -109,6 +114,12 @@ fn shell_surface(r: f32) -> Mesh {
     m
 }
 
+/// The head used where none is given: a 45° cone, 20 mm radius, 30 mm
+/// tall, like the data set's.
+pub fn default_head() -> Mesh {
+    cone_head(20.0, 20.0, 30.0, 64)
+}
+
 /// A closed head: a cone of half-angle `atan(radius / cone_height)` from
 /// the tip at the origin, then a cylinder up to `height`, axis +z.
 pub fn cone_head(radius: f32, cone_height: f32, height: f32, segments: u32) -> Mesh {
@@ -147,6 +158,36 @@ pub fn star_head(radii: &[f32], cone_height: f32, height: f32, shift: [f32; 2]) 
     m
 }
 
+/// A surface over `[-half_width, half_width]²` with heights `height(x, y)`:
+/// `cells` × `cells` squares, each split into four triangles around a
+/// vertex at its centre (so the mesh is symmetric under both mirrors),
+/// normals up.
+pub fn height_field(cells: usize, half_width: f32, height: impl Fn(f32, f32) -> f32) -> Mesh {
+    let (n, a) = (cells, half_width);
+    let mut m = Mesh::default();
+    let h = 2.0 * a / n as f32;
+    for j in 0..=n {
+        for i in 0..=n {
+            let (x, y) = (-a + i as f32 * h, -a + j as f32 * h);
+            m.vertices.push([x, y, height(x, y)]);
+        }
+    }
+    let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+    for j in 0..n {
+        for i in 0..n {
+            let (x, y) = (-a + (i as f32 + 0.5) * h, -a + (j as f32 + 0.5) * h);
+            let c = m.vertices.len() as u32;
+            m.vertices.push([x, y, height(x, y)]);
+            let (p00, p10, p11, p01) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
+            m.triangles.push([p00, p10, c]);
+            m.triangles.push([p10, p11, c]);
+            m.triangles.push([p11, p01, c]);
+            m.triangles.push([p01, p00, c]);
+        }
+    }
+    m
+}
+
 /// A closed axis-aligned box, outward-facing.
 pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
     let vertices = (0..8)
@@ -178,9 +219,9 @@ pub fn box_mesh(min: [f32; 3], max: [f32; 3]) -> Mesh {
     }
 }
 
-/// The default job's scene at the default settings (for tests).
-#[cfg(test)]
-pub(crate) fn scene() -> crate::scene::Scene {
+/// The default job's scene at the default settings (for examples,
+/// benches and tests).
+pub fn scene() -> crate::scene::Scene {
     let job = job();
     crate::scene::Scene::build(
         &job.toolpath,
@@ -188,7 +229,7 @@ pub(crate) fn scene() -> crate::scene::Scene {
         &job.platform,
         &crate::scene::SceneConfig::default(),
     )
-    .unwrap()
+    .expect("the default job's scene builds")
 }
 
 #[cfg(test)]

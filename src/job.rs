@@ -1,6 +1,7 @@
-//! A job: the toolpath (with the data set's input conventions applied), the
-//! head, the platform and the scene built from them. Every command and the
-//! tests load inputs through [`Job::load`], so they all see the same poses.
+//! A loaded job: the toolpath (with the data set's input conventions
+//! applied), the head, the platform and the scene built from them. Every
+//! command and the tests load inputs through [`LoadedJob::load`], so they
+//! all see the same poses.
 //!
 //! Conventions applied on loading (README, "Input formats"):
 //! - `--y-up` rotation and `--place` translation ([`Placement`]);
@@ -13,7 +14,7 @@
 use crate::default_job;
 use crate::geometry::{Aabb, Mesh};
 use crate::io::mesh::load_mesh;
-use crate::io::toolpath::load_toolpath;
+use crate::io::toolpath_folder::load_toolpath;
 use crate::io::{InputError, Placement};
 use crate::scene::{HeadConfig, Scene, SceneConfig, SceneError};
 use crate::toolpath::Toolpath;
@@ -59,9 +60,10 @@ pub struct JobSpec {
     pub tilt_deg: Option<f64>,
 }
 
-/// A loaded job.
+/// A job loaded from its [`JobSpec`]: the toolpath with the conventions
+/// applied and the scene built from it, head and platform.
 #[derive(Clone, Debug)]
-pub struct Job {
+pub struct LoadedJob {
     /// What the user named (for messages and reports).
     pub source: String,
     /// The toolpath, conventions applied.
@@ -74,19 +76,19 @@ pub struct Job {
     pub seconds: f64,
 }
 
-impl Job {
+impl LoadedJob {
     /// Load the inputs of `spec`, apply the conventions and build the scene.
-    pub fn load(spec: &JobSpec) -> Result<Job, JobError> {
-        Ok(Job::load_beside(spec, |_| ())?.0)
+    pub fn load(spec: &JobSpec) -> Result<LoadedJob, JobError> {
+        Ok(LoadedJob::load_beside(spec, |_| ())?.0)
     }
 
-    /// [`Job::load`], running `beside` on the toolpath (conventions
+    /// [`LoadedJob::load`], running `beside` on the toolpath (conventions
     /// applied) while the scene is built: work that needs only the
     /// toolpath fills the cores the scene's build leaves idle.
     pub fn load_beside<T: Send>(
         spec: &JobSpec,
         beside: impl FnOnce(&Toolpath) -> T + Send,
-    ) -> Result<(Job, T), JobError> {
+    ) -> Result<(LoadedJob, T), JobError> {
         let t0 = Instant::now();
         if !(spec.clearance >= 0.0 && spec.clearance.is_finite()) {
             return Err(JobError::Setting(
@@ -136,21 +138,14 @@ impl Job {
         };
         let head = match &spec.head {
             Some(p) => load_mesh(p)?,
-            None => default_head.unwrap_or_else(|| default_job::cone_head(20.0, 20.0, 30.0, 64)),
+            None => default_head.unwrap_or_else(default_job::default_head),
         };
         let platform = match &spec.platform {
             Some(p) => load_mesh(p)?,
             None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
         };
-        let cfg = SceneConfig {
-            head: HeadConfig {
-                tip_clearance: spec.clearance,
-                ..HeadConfig::default()
-            },
-            max_edge: None,
-            head_cache: true,
-        };
-        let (scene, made) = rayon::join(
+        let cfg = scene_config(spec.clearance);
+        let (scene, beside_result) = rayon::join(
             || Scene::build(&toolpath, &head, &platform, &cfg),
             || beside(&toolpath),
         );
@@ -161,14 +156,14 @@ impl Job {
                 .map_or("default".into(), |p| p.display().to_string()),
             source,
         })?;
-        let job = Job {
+        let job = LoadedJob {
             source,
             toolpath,
             scene,
             flipped_layers,
             seconds: t0.elapsed().as_secs_f64(),
         };
-        Ok((job, made))
+        Ok((job, beside_result))
     }
 
     /// Names of the flipped layers.
@@ -177,6 +172,19 @@ impl Job {
             .iter()
             .map(|&k| self.toolpath.layers[k].name.clone())
             .collect()
+    }
+}
+
+/// The scene settings of a loaded job: contact within `clearance` of the
+/// tip, along the nozzle, ignored; the head's data cached between runs.
+pub fn scene_config(clearance: f32) -> SceneConfig {
+    SceneConfig {
+        head: HeadConfig {
+            tip_clearance: clearance,
+            ..HeadConfig::default()
+        },
+        max_edge: None,
+        head_cache: true,
     }
 }
 

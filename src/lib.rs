@@ -7,7 +7,9 @@
 //! (triangle-level), for batches of poses.
 //! [`plan`] builds machine motion on top of it, and [`generate`] makes the
 //! waypoints from a mesh (planar slicing with raster fills, iso-planar
-//! paths on a curved layer).
+//! paths on a curved layer). [`check`] asks it of every waypoint's pose
+//! (or a written plan's) without planning, [`simulate`] of every line of
+//! any program, and [`report`] turns the answers into documents.
 //!
 //! ```
 //! use maamplan::{collide::{cpu::CpuBackend, Backend}, default_job, scene::{Scene, SceneConfig}};
@@ -20,6 +22,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod check;
 pub mod collide;
 pub mod default_job;
 pub mod generate;

@@ -66,6 +66,16 @@ impl Toolpath {
             .flat_map(|(k, l)| l.waypoints.iter().map(move |w| (k, w)))
     }
 
+    /// Every tip position in print order, in f64.
+    pub fn positions(&self) -> Vec<[f64; 3]> {
+        self.iter().map(|(_, w)| w.pos.map(f64::from)).collect()
+    }
+
+    /// Every nozzle direction in print order, in f64.
+    pub fn directions(&self) -> Vec<[f64; 3]> {
+        self.iter().map(|(_, w)| w.dir.map(f64::from)).collect()
+    }
+
     /// The data set's layer-orientation convention: reverse every nozzle
     /// direction of each layer in which more than [`FLIP_SHARE`] of them
     /// point down (negative z, after any Y-up rotation). Returns the indices

@@ -527,7 +527,7 @@ fn asked_of(q: &GpuQuery, tri: &[[f64; 3]; 3]) -> f64 {
 
 /// simple_curve with every nozzle tilted 50° about x: the head's flank
 /// lies a few tenths of a millimetre over the layers.
-fn tilted_simple_curve() -> maamplan::job::Job {
+fn tilted_simple_curve() -> maamplan::job::LoadedJob {
     simple_curve_job_tilted(Some(50.0))
 }
 

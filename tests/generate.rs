@@ -8,7 +8,7 @@
 mod common;
 
 use maamplan::collide::cpu::CpuBackend;
-use maamplan::default_job::{box_mesh, cone_head};
+use maamplan::default_job::{box_mesh, cone_head, height_field as grid};
 use maamplan::generate::slice::frame;
 use maamplan::generate::{
     isoplanar, slice, Fill, IsoplanarOptions, IsoplanarResult, SliceOptions, SliceResult,
@@ -16,7 +16,7 @@ use maamplan::generate::{
 use maamplan::geometry::point_triangle_distance::point_triangle_distance;
 use maamplan::geometry::Mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::{load_toolpath, mesh_obj, toolpath_files};
+use maamplan::io::toolpath_folder::{load_toolpath, mesh_obj, toolpath_files};
 use maamplan::io::Placement;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{plan, Plan, PlanOptions, Stage};
@@ -334,33 +334,6 @@ fn assert_plan_is_printable(p: &maamplan::plan::Plan, m: &Machine) {
         .waypoints
         .iter()
         .all(|w| w.axes.xyz.iter().all(|x| x.is_finite())));
-}
-
-/// A grid surface over [-a, a]² with a centre vertex per cell (symmetric
-/// under both mirrors), heights from `f`, normals up.
-fn grid(n: usize, a: f32, f: impl Fn(f32, f32) -> f32) -> Mesh {
-    let mut m = Mesh::default();
-    let h = 2.0 * a / n as f32;
-    for j in 0..=n {
-        for i in 0..=n {
-            let (x, y) = (-a + i as f32 * h, -a + j as f32 * h);
-            m.vertices.push([x, y, f(x, y)]);
-        }
-    }
-    let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-    for j in 0..n {
-        for i in 0..n {
-            let (x, y) = (-a + (i as f32 + 0.5) * h, -a + (j as f32 + 0.5) * h);
-            let c = m.vertices.len() as u32;
-            m.vertices.push([x, y, f(x, y)]);
-            let (p00, p10, p11, p01) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-            m.triangles.push([p00, p10, c]);
-            m.triangles.push([p10, p11, c]);
-            m.triangles.push([p11, p01, c]);
-            m.triangles.push([p01, p00, c]);
-        }
-    }
-    m
 }
 
 const R: f32 = 20.0;

@@ -11,7 +11,7 @@ use common::{cli, plate};
 use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::{mesh_obj, toolpath_files};
+use maamplan::io::toolpath_folder::{mesh_obj, toolpath_files};
 use maamplan::kinematics::{Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post};
 use maamplan::plan::program::{move_seconds, MoveKind};
 use maamplan::plan::{Plan, PlanOptions};

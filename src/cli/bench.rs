@@ -8,6 +8,7 @@ use anyhow::Result;
 use clap::Args;
 use maamplan::collide::gpu::GpuOptions;
 use maamplan::collide::sample::tilted_queries;
+use maamplan::scene::{Query, Scene};
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -75,6 +76,20 @@ enum GpuWalk {
     Persistent,
 }
 
+impl BenchArgs {
+    /// The gpu backend's tuning from the flags.
+    fn gpu_options(&self) -> GpuOptions {
+        GpuOptions {
+            batch: self.gpu_batch,
+            subgroups: self.gpu_walk.map(|w| w == GpuWalk::Persistent),
+            subgroup_appends: self.gpu_appends.map(|w| w == GpuAppends::Subgroup),
+            per_query: self.gpu_share,
+            coherent: self.gpu_order,
+            ..GpuOptions::default()
+        }
+    }
+}
+
 /// Run `bench`.
 pub fn run(a: BenchArgs) -> Result<()> {
     if a.backends.is_empty() {
@@ -101,85 +116,21 @@ pub fn run(a: BenchArgs) -> Result<()> {
         scene.triangle_count(),
         rayon::current_num_threads(),
     );
-    let mut results = Vec::new();
-    let mut reference: Option<Vec<bool>> = None;
+    let first = a.backends[0].name();
+    let mut results: Vec<Measured> = Vec::new();
     for kind in &a.backends {
-        let t0 = Instant::now();
-        let gpu = GpuOptions {
-            batch: a.gpu_batch,
-            subgroups: a.gpu_walk.map(|w| w == GpuWalk::Persistent),
-            subgroup_appends: a.gpu_appends.map(|w| w == GpuAppends::Subgroup),
-            per_query: a.gpu_share,
-            coherent: a.gpu_order,
-            ..GpuOptions::default()
-        };
-        let backend = kind.build_with(Opening::none(), scene, true, gpu)?;
-        let setup = t0.elapsed().as_secs_f64();
-        // Repeat short runs (at least 2 s or 5 runs) and keep the median.
-        let mut times = Vec::new();
-        let mut verdicts = Vec::new();
-        while times.len() < 5 && times.iter().sum::<f64>() < 2.0 {
-            let pb = progress(queries.len() as u64, backend.name());
-            let t1 = Instant::now();
-            verdicts = evaluate_with_progress(backend.as_ref(), &queries, &pb)?;
-            times.push(t1.elapsed().as_secs_f64());
-        }
-        times.sort_by(f64::total_cmp);
-        let seconds = times[times.len() / 2];
-        let colliding = verdicts.iter().filter(|&&c| c).count();
-        let differing: Option<Vec<usize>> = reference.as_ref().map(|r| {
-            r.iter()
-                .zip(&verdicts)
-                .enumerate()
-                .filter(|(_, (a, b))| a != b)
-                .map(|(i, _)| i)
-                .collect()
-        });
-        let disagree = differing.as_ref().map(|d| d.len());
-        let pps = queries.len() as f64 / seconds.max(1e-9);
-        println!(
-            "{:>8}: {:>12.0} poses/s  {:>8.3} s (median of {})  colliding {:>7}  setup {:.3} s{}",
-            backend.name(),
-            pps,
-            seconds,
-            times.len(),
-            colliding,
-            setup,
-            disagree.map_or(String::new(), |d| format!(
-                "  disagreements vs {}: {d}",
-                a.backends[0].name()
-            )),
-        );
-        let summary = backend.summary();
-        if let Some(line) = &summary {
-            println!("          {line}");
-        }
-        results.push(json!({
-            "backend": backend.name(),
-            "poses_per_second": pps,
-            "seconds": seconds,
-            "setup_seconds": setup,
-            "runs": times.len(),
-            "colliding": colliding,
-            "disagreements_with_first": disagree,
-            "disagreeing_queries": differing.map(|d| d.into_iter().take(100).collect::<Vec<_>>()),
-            "summary": summary,
-        }));
-        if reference.is_none() {
-            reference = Some(verdicts);
-        }
+        let reference = results.first().map(|r| r.verdicts.as_slice());
+        let measured = measure(*kind, scene, &queries, a.gpu_options(), reference)?;
+        measured.print(first);
+        results.push(measured);
     }
-    if results.len() > 1 {
-        let first = results[0]["poses_per_second"].as_f64().unwrap_or(0.0);
-        for r in &results[1..] {
-            let other = r["poses_per_second"].as_f64().unwrap_or(f64::NAN);
-            println!(
-                "{} / {}: {:.1}×",
-                a.backends[0].name(),
-                r["backend"].as_str().unwrap_or("?"),
-                first / other
-            );
-        }
+    for r in results.iter().skip(1) {
+        println!(
+            "{} / {}: {:.1}×",
+            first,
+            r.backend,
+            results[0].poses_per_second / r.poses_per_second
+        );
     }
     if let Some(path) = &a.json {
         write_json(
@@ -189,9 +140,106 @@ pub fn run(a: BenchArgs) -> Result<()> {
                 "queries": queries.len(),
                 "margin_mm": a.margin,
                 "threads": rayon::current_num_threads(),
-                "results": results,
+                "results": results.iter().map(Measured::to_json).collect::<Vec<_>>(),
             }),
         )?;
     }
     Ok(())
+}
+
+/// One backend's throughput on the bench's queries.
+struct Measured {
+    backend: String,
+    poses_per_second: f64,
+    /// The median run's seconds.
+    seconds: f64,
+    setup_seconds: f64,
+    runs: usize,
+    colliding: usize,
+    /// The queries whose verdict differs from the first backend's (`None`
+    /// for the first).
+    differing: Option<Vec<usize>>,
+    summary: Option<String>,
+    verdicts: Vec<bool>,
+}
+
+/// Build backend `kind` over `scene` and time it on `queries`: short runs
+/// repeated (at least 2 s or 5 runs), the median kept; its verdicts
+/// compared with `reference` (the first backend's).
+fn measure(
+    kind: BackendKind,
+    scene: &Scene,
+    queries: &[Query],
+    gpu: GpuOptions,
+    reference: Option<&[bool]>,
+) -> Result<Measured> {
+    let t0 = Instant::now();
+    let backend = kind.build_with(Opening::none(), scene, true, gpu)?;
+    let setup_seconds = t0.elapsed().as_secs_f64();
+    let mut times = Vec::new();
+    let mut verdicts = Vec::new();
+    while times.len() < 5 && times.iter().sum::<f64>() < 2.0 {
+        let pb = progress(queries.len() as u64, backend.name());
+        let t1 = Instant::now();
+        verdicts = evaluate_with_progress(backend.as_ref(), queries, &pb)?;
+        times.push(t1.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    let seconds = times[times.len() / 2];
+    let differing = reference.map(|r| {
+        r.iter()
+            .zip(&verdicts)
+            .enumerate()
+            .filter(|(_, (a, b))| a != b)
+            .map(|(i, _)| i)
+            .collect()
+    });
+    Ok(Measured {
+        backend: backend.name().to_string(),
+        poses_per_second: queries.len() as f64 / seconds.max(1e-9),
+        seconds,
+        setup_seconds,
+        runs: times.len(),
+        colliding: verdicts.iter().filter(|&&c| c).count(),
+        differing,
+        summary: backend.summary(),
+        verdicts,
+    })
+}
+
+impl Measured {
+    /// Its line (and the backend's summary) on stdout.
+    fn print(&self, first: &str) {
+        println!(
+            "{:>8}: {:>12.0} poses/s  {:>8.3} s (median of {})  colliding {:>7}  setup {:.3} s{}",
+            self.backend,
+            self.poses_per_second,
+            self.seconds,
+            self.runs,
+            self.colliding,
+            self.setup_seconds,
+            self.differing.as_ref().map_or(String::new(), |d| format!(
+                "  disagreements vs {first}: {}",
+                d.len()
+            )),
+        );
+        if let Some(line) = &self.summary {
+            println!("          {line}");
+        }
+    }
+
+    /// Its entry of `--json`'s results.
+    fn to_json(&self) -> serde_json::Value {
+        json!({
+            "backend": self.backend,
+            "poses_per_second": self.poses_per_second,
+            "seconds": self.seconds,
+            "setup_seconds": self.setup_seconds,
+            "runs": self.runs,
+            "colliding": self.colliding,
+            "disagreements_with_first": self.differing.as_ref().map(|d| d.len()),
+            "disagreeing_queries": self.differing.as_ref().map(|d| d.iter().take(100).collect::<Vec<_>>()),
+            "summary": self.summary,
+        })
+    }
 }

@@ -5,15 +5,16 @@
 use super::{machine_and_margin, progress, write_json, BackendKind, SceneArgs, UsageError};
 use anyhow::Result;
 use clap::Args;
+use maamplan::check::{self, CheckError, LayerCount, Verdicts};
+use maamplan::collide::Backend;
 use maamplan::io::plan_csv::read_plan;
-use maamplan::job::Job;
-use maamplan::kinematics::{Axes, Machine};
-use maamplan::plan::layer_reading::NearestLayer;
-use maamplan::plan::{head_reach, input_axes, runs, PlanOptions};
+use maamplan::job::LoadedJob;
+use maamplan::kinematics::Machine;
+use maamplan::plan::{head_reach, PlanOptions};
 use maamplan::prove::Prover;
-use maamplan::scene::cutoff;
-use serde_json::json;
-use std::path::PathBuf;
+use maamplan::report::json::{check_report, CheckRun};
+use maamplan::scene::Scene;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Arguments of `check`.
@@ -48,124 +49,100 @@ pub struct CheckArgs {
     verbose: bool,
 }
 
-/// What was checked: per waypoint, its pose's verdict (`None`: skipped),
-/// and the moves into it (`None`: none checked).
-struct Verdicts {
-    poses: Vec<Option<bool>>,
-    moves: Vec<Option<bool>>,
-}
-
 /// Run `check`.
 pub fn run(a: CheckArgs) -> Result<()> {
     let (machine, margin) = machine_and_margin(a.machine.as_deref(), a.margin)?;
     let opening = a.backend.open();
     let job = a.scene.load()?;
-    let scene = &job.scene;
     let backend = a
         .backend
-        .build_with(opening, scene, !a.quiet, Default::default())?;
+        .build_with(opening, &job.scene, !a.quiet, Default::default())?;
     let prover = Prover::new(
         &machine,
         backend.as_ref(),
-        head_reach(scene),
+        head_reach(&job.scene),
         margin,
         PlanOptions::default().edge_step,
     );
-    let n = job.toolpath.waypoint_count();
     let t0 = Instant::now();
-    let pb = progress(n as u64, "checking");
-    let v = match &a.plan {
-        Some(csv) => check_plan(&job, &machine, &prover, csv)?,
-        None => {
-            let pos: Vec<[f64; 3]> = job
-                .toolpath
-                .iter()
-                .map(|(_, w)| w.pos.map(|x| x as f64))
-                .collect();
-            let dirs: Vec<[f64; 3]> = job
-                .toolpath
-                .iter()
-                .map(|(_, w)| w.dir.map(|x| x as f64))
-                .collect();
-            let axes = input_axes(
-                &machine,
-                &pos,
-                &dirs,
-                &runs(&job.toolpath, PlanOptions::default().jump),
-            );
-            let items: Vec<(Axes, u32)> = axes
-                .iter()
-                .enumerate()
-                .map(|(g, a)| (*a, cutoff(g)))
-                .collect();
-            let hits = prover.poses_at(&items, margin)?;
-            Verdicts {
-                poses: hits.into_iter().map(Some).collect(),
-                moves: vec![None; n],
-            }
-        }
+    let pb = progress(job.toolpath.waypoint_count() as u64, "checking");
+    let verdicts = match &a.plan {
+        Some(csv) => check_written_plan(&job, &machine, &prover, csv)?,
+        None => check::input_poses(&job, &machine, &prover)?,
     };
     pb.finish_and_clear();
     let seconds = t0.elapsed().as_secs_f64();
-
-    let layers = &job.toolpath.layers;
-    // Per layer: waypoints, colliding poses, colliding moves.
-    let mut per_layer = vec![(0usize, 0usize, 0usize); layers.len()];
-    for (i, (p, m)) in v.poses.iter().zip(&v.moves).enumerate() {
-        let l = scene.waypoint_layers[i] as usize;
-        per_layer[l].0 += 1;
-        per_layer[l].1 += (*p == Some(true)) as usize;
-        per_layer[l].2 += (*m == Some(true)) as usize;
-    }
-    let colliding: usize = per_layer.iter().map(|p| p.1).sum();
-    let colliding_moves: usize = per_layer.iter().map(|p| p.2).sum();
-    let moves_checked = v.moves.iter().filter(|m| m.is_some()).count();
-
+    let flipped = job.flipped_names();
+    let run = CheckRun {
+        source: &job.source,
+        backend: backend.name(),
+        margin,
+        seconds,
+        flipped_layers: &flipped,
+    };
+    let layers: Vec<(&str, LayerCount)> = job
+        .toolpath
+        .layers
+        .iter()
+        .map(|l| l.name.as_str())
+        .zip(verdicts.per_layer(&job))
+        .collect();
     if let Some(path) = &a.json {
-        let doc = json!({
-            "source": job.source,
-            "waypoints": n,
-            "colliding": colliding,
-            "moves": moves_checked,
-            "colliding_moves": colliding_moves,
-            "margin": margin,
-            "backend": backend.name(),
-            "seconds": seconds,
-            "flipped_layers": job.flipped_names(),
-            "layers": layers.iter().zip(&per_layer).enumerate().map(|(i, (l, (w, c, cm)))| json!({
-                "index": i, "name": l.name, "waypoints": w, "colliding": c, "colliding_moves": cm,
-            })).collect::<Vec<_>>(),
-            "colliding_waypoints": v.poses.iter().enumerate().filter(|(_, h)| **h == Some(true)).map(|(i, _)| i).collect::<Vec<_>>(),
-            "colliding_moves_into": v.moves.iter().enumerate().filter(|(_, h)| **h == Some(true)).map(|(i, _)| i).collect::<Vec<_>>(),
-        });
-        write_json(path, &doc)?;
+        write_json(path, &check_report(&run, &layers, &verdicts))?;
     }
     if a.quiet {
         return Ok(());
     }
     if a.verbose {
-        println!(
-            "scene: {} triangles ({} BVH nodes), head {} triangles, grid {:?} cells of {:.3} mm, tolerance {:.1e} mm; {} collision queries",
-            scene.triangle_count(),
-            scene.part_nodes.len(),
-            scene.head.triangles.len(),
-            scene.head.params.grid_dims,
-            scene.head.params.cell,
-            scene.tol,
-            prover.queries()
-        );
-        if let Some(line) = backend.summary() {
-            println!("{line}");
-        }
+        print_scene(&job.scene, &prover, backend.as_ref());
     }
-    if !job.flipped_layers.is_empty() {
+    if !flipped.is_empty() {
         println!(
             "reversed the nozzle directions of {} layer(s) that mostly pointed down: {}",
-            job.flipped_layers.len(),
-            job.flipped_names().join(", ")
+            flipped.len(),
+            flipped.join(", ")
         );
     }
     let with_moves = a.plan.is_some();
+    print_layers(&layers, with_moves);
+    print_total(&run, &job, &verdicts, &layers, with_moves);
+    Ok(())
+}
+
+/// `check --plan`: the written plan's rows read and checked.
+fn check_written_plan(
+    job: &LoadedJob,
+    machine: &Machine,
+    prover: &Prover,
+    csv: &Path,
+) -> Result<Verdicts> {
+    let rows = read_plan(csv)?;
+    check::written_plan(job, machine, prover, &rows).map_err(|e| match e {
+        e @ CheckError::RowCount { .. } => UsageError(format!("{}: {e}", csv.display())).into(),
+        CheckError::Collide(e) => e.into(),
+    })
+}
+
+/// `-v`: the scene's size and the evaluator's own summary.
+fn print_scene(scene: &Scene, prover: &Prover, backend: &dyn Backend) {
+    println!(
+        "scene: {} triangles ({} BVH nodes), head {} triangles, grid {:?} cells of {:.3} mm, tolerance {:.1e} mm; {} collision queries",
+        scene.triangle_count(),
+        scene.part_nodes.len(),
+        scene.head.triangles.len(),
+        scene.head.params.grid_dims,
+        scene.head.params.cell,
+        scene.tol,
+        prover.queries()
+    );
+    if let Some(line) = backend.summary() {
+        println!("{line}");
+    }
+}
+
+/// The per-layer table (with a column of colliding moves when a plan's
+/// moves were checked).
+fn print_layers(layers: &[(&str, LayerCount)], with_moves: bool) {
     if with_moves {
         println!(
             "{:>8} {:>10} {:>10} {:>10}",
@@ -174,95 +151,50 @@ pub fn run(a: CheckArgs) -> Result<()> {
     } else {
         println!("{:>8} {:>10} {:>10}", "layer", "waypoints", "colliding");
     }
-    for (l, (w, c, cm)) in layers.iter().zip(&per_layer) {
+    for (name, count) in layers {
         if with_moves {
-            println!("{:>8} {:>10} {:>10} {:>10}", l.name, w, c, cm);
+            println!(
+                "{:>8} {:>10} {:>10} {:>10}",
+                name, count.waypoints, count.colliding, count.colliding_moves
+            );
         } else {
-            println!("{:>8} {:>10} {:>10}", l.name, w, c);
+            println!(
+                "{:>8} {:>10} {:>10}",
+                name, count.waypoints, count.colliding
+            );
         }
     }
+}
+
+/// The closing line: how many waypoints (and moves) come within the margin.
+fn print_total(
+    run: &CheckRun,
+    job: &LoadedJob,
+    verdicts: &Verdicts,
+    layers: &[(&str, LayerCount)],
+    with_moves: bool,
+) {
+    let total = LayerCount::total(layers.iter().map(|l| &l.1));
+    let n = verdicts.poses.len();
     let moves_note = if with_moves {
-        format!(", {colliding_moves} of {moves_checked} printing moves")
+        format!(
+            ", {} of {} printing moves",
+            total.colliding_moves,
+            verdicts.moves_checked()
+        )
     } else {
         String::new()
     };
     println!(
         "{}: {} of {} waypoints come within {} mm ({:.2} %){moves_note} — backend {}, {:.3} s, scene {} triangles built in {:.2} s",
-        job.source,
-        colliding,
+        run.source,
+        total.colliding,
         n,
-        margin,
-        100.0 * colliding as f64 / n.max(1) as f64,
-        backend.name(),
-        seconds,
-        scene.triangle_count(),
+        run.margin,
+        100.0 * total.colliding as f64 / n.max(1) as f64,
+        run.backend,
+        run.seconds,
+        job.scene.triangle_count(),
         job.seconds,
     );
-    Ok(())
-}
-
-/// The poses of a written plan's rows and the printing moves between
-/// consecutive visited rows (split for the tip tolerance exactly as `plan`
-/// writes them).
-fn check_plan(job: &Job, m: &Machine, prover: &Prover, csv: &std::path::Path) -> Result<Verdicts> {
-    let rows = read_plan(csv)?;
-    let n = job.toolpath.waypoint_count();
-    if rows.len() != n {
-        return Err(UsageError(format!(
-            "{}: {} rows but the toolpath has {} waypoints: check the plan of this toolpath",
-            csv.display(),
-            rows.len(),
-            n
-        ))
-        .into());
-    }
-    let axes: Vec<Option<Axes>> = rows
-        .iter()
-        .map(|r| {
-            r.axes.map(|v| Axes {
-                xyz: [v[0], v[1], v[2]],
-                tilt: v[3].to_radians(),
-                c: v[4].to_radians(),
-            })
-        })
-        .collect();
-    let items: Vec<(usize, Axes)> = axes
-        .iter()
-        .enumerate()
-        .filter_map(|(g, a)| a.map(|a| (g, a)))
-        .collect();
-    let pose_hits = prover.poses_at(
-        &items
-            .iter()
-            .map(|(g, a)| (*a, cutoff(*g)))
-            .collect::<Vec<_>>(),
-        prover.margin,
-    )?;
-    let mut poses = vec![None; n];
-    for ((g, _), h) in items.iter().zip(pose_hits) {
-        poses[*g] = Some(h);
-    }
-    let reader = NearestLayer::of(&job.toolpath);
-    let mut specs = Vec::new();
-    let mut owner = Vec::new();
-    for g in 1..n {
-        let (Some(a), Some(b)) = (axes[g - 1], axes[g]) else {
-            continue;
-        };
-        if rows[g].travel_before {
-            continue;
-        }
-        let layer = job.scene.waypoint_layers[g] as usize;
-        for mv in reader.bead_moves(m, &a, &b, m.tip_tolerance, layer, g as u32) {
-            specs.push(mv);
-            owner.push(g);
-        }
-    }
-    let hits = prover.moves(&specs)?;
-    let mut moves = vec![None; n];
-    for (&g, h) in owner.iter().zip(hits) {
-        let e = moves[g].get_or_insert(false);
-        *e |= h;
-    }
-    Ok(Verdicts { poses, moves })
 }

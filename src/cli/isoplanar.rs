@@ -2,13 +2,11 @@
 //! iso-planar waypoints (paper 001) → a toolpath folder and a summary with
 //! the v_e(θ) curve and θ*.
 
-use super::UsageError;
+use super::{write_generated, UsageError};
 use anyhow::{Context, Result};
 use clap::Args;
 use maamplan::generate::{isoplanar, IsoplanarOptions};
 use maamplan::io::mesh::load_mesh;
-use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::toolpath_files;
 use maamplan::kinematics::{load_machine, Machine};
 use serde_json::json;
 use std::path::PathBuf;
@@ -73,7 +71,7 @@ pub fn run(a: IsoplanarArgs) -> Result<()> {
         "height_mm": opts.height,
         "chord_error_mm": opts.chord_error,
         "theta_star_deg": r.theta_star_deg,
-        "drive_plane_normal": [r.theta_star_deg.to_radians().sin(), r.theta_star_deg.to_radians().cos(), 0.0],
+        "drive_plane_normal": r.drive_plane_normal(),
         "curve": r.curve,
         "curves": r.side_steps.len() + 1,
         "side_steps_mm": r.side_steps,
@@ -82,14 +80,7 @@ pub fn run(a: IsoplanarArgs) -> Result<()> {
         "travel_mm": r.travel_length,
         "seconds": t0.elapsed().as_secs_f64(),
     });
-    let mut files = toolpath_files(&r.toolpath);
-    files.push(("summary.json".into(), super::json_bytes(&summary)?));
-    write_folder_atomic(&out, &files).map_err(|e| {
-        UsageError(format!(
-            "{}: cannot write ({e}): check the parent folder exists and is writable",
-            out.display()
-        ))
-    })?;
+    write_generated(&out, &r.toolpath, &summary)?;
     println!(
         "θ* = {:.1}°, {} curves, {} waypoints, print {:.1} mm, travel {:.1} mm → {}",
         r.theta_star_deg,

@@ -16,11 +16,15 @@ use maamplan::collide::cpu::CpuBackend;
 use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
 use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
+use maamplan::io::output::write_folder_atomic;
+use maamplan::io::toolpath_folder::toolpath_files;
 use maamplan::io::Placement;
-use maamplan::job::{Job, JobError, JobSpec};
+use maamplan::job::{JobError, JobSpec, LoadedJob};
+use maamplan::kinematics::{load_machine, Machine};
+use maamplan::report::json::pretty_bytes;
 use maamplan::scene::Scene;
 use maamplan::toolpath::Toolpath;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Collision-free, singularity-aware motion planning for multi-axis 3D printing.
 #[derive(Parser, Debug)]
@@ -95,16 +99,16 @@ pub struct SceneArgs {
 
 impl SceneArgs {
     /// Load the inputs (or the built-in example) and build the scene.
-    pub fn load(&self) -> Result<Job> {
+    pub fn load(&self) -> Result<LoadedJob> {
         Ok(self.load_beside(|_| ())?.0)
     }
 
     /// [`SceneArgs::load`], running `beside` on the toolpath while the
-    /// scene is built ([`Job::load_beside`]).
+    /// scene is built ([`LoadedJob::load_beside`]).
     pub fn load_beside<T: Send>(
         &self,
         beside: impl FnOnce(&Toolpath) -> T + Send,
-    ) -> Result<(Job, T)> {
+    ) -> Result<(LoadedJob, T)> {
         if let Some(t) = self.tilt {
             if !t.is_finite() {
                 return Err(UsageError("--tilt must be a finite angle (degrees)".into()).into());
@@ -122,7 +126,7 @@ impl SceneArgs {
             keep_normals: self.keep_normals,
             tilt_deg: self.tilt,
         };
-        Job::load_beside(&spec, beside).map_err(|e| match e {
+        LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),
             e => anyhow::Error::from(e),
         })
@@ -177,13 +181,13 @@ impl BackendKind {
     /// tuning flags).
     pub fn build_with<'a>(
         self,
-        opening: Opening,
+        mut opening: Opening,
         scene: &'a Scene,
         announce: bool,
         gpu: GpuOptions,
     ) -> Result<Box<dyn Backend + 'a>> {
-        let context = || -> Result<Option<GpuContext>, maamplan::collide::CollideError> {
-            match opening.0 {
+        let mut context = || -> Result<Option<GpuContext>, maamplan::collide::CollideError> {
+            match opening.0.take() {
                 Some(thread) => thread.join().expect("opening the GPU panicked"),
                 None => GpuContext::open(self == BackendKind::Auto),
             }
@@ -239,21 +243,71 @@ impl Opening {
     }
 }
 
+impl Drop for Opening {
+    /// A run that ends before it builds its backend (an input error)
+    /// waits for the driver to finish opening: leaving the process while
+    /// another thread is inside the driver's start crashes it.
+    fn drop(&mut self) {
+        if let Some(thread) = self.0.take() {
+            let _ = thread.join();
+        }
+    }
+}
+
+/// The machine of `--machine`, or the built-in one.
+pub fn load_machine_or_default(path: Option<&Path>) -> Result<Machine> {
+    Ok(match path {
+        Some(p) => load_machine(p)?,
+        None => Machine::default(),
+    })
+}
+
 /// The machine of `--machine` (or the built-in one) and the margin to
 /// check at: `--margin`, else the machine file's.
-pub fn machine_and_margin(
-    path: Option<&std::path::Path>,
-    margin: Option<f64>,
-) -> Result<(maamplan::kinematics::Machine, f64)> {
-    let machine = match path {
-        Some(p) => maamplan::kinematics::load_machine(p)?,
-        None => maamplan::kinematics::Machine::default(),
-    };
+pub fn machine_and_margin(path: Option<&Path>, margin: Option<f64>) -> Result<(Machine, f64)> {
+    let machine = load_machine_or_default(path)?;
     let margin = margin.unwrap_or(machine.margin);
     if !(margin.is_finite() && (0.0..10.0).contains(&margin)) {
         return Err(UsageError("--margin must be between 0 and 10 mm".into()).into());
     }
     Ok((machine, margin))
+}
+
+/// Check before any work that `out` can become the output folder: not a
+/// file, and its nearest existing ancestor a writable folder.
+pub fn check_output(out: &Path) -> Result<()> {
+    if out.exists() && !out.is_dir() {
+        return Err(UsageError(format!(
+            "{}: is a file, not a folder: give -o a folder to write the plan into",
+            out.display()
+        ))
+        .into());
+    }
+    let mut anc = out;
+    while !anc.exists() {
+        anc = match anc.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p,
+            _ => Path::new("."),
+        };
+    }
+    if !anc.is_dir() {
+        return Err(UsageError(format!(
+            "{}: cannot create the output folder {} inside a file",
+            anc.display(),
+            out.display()
+        ))
+        .into());
+    }
+    tempfile::Builder::new()
+        .prefix(".maamplan-probe-")
+        .tempdir_in(anc)
+        .map_err(|e| {
+            UsageError(format!(
+                "{}: cannot write there ({e}): choose another -o folder",
+                anc.display()
+            ))
+        })?;
+    Ok(())
 }
 
 pub(crate) fn parse_xyz(s: &str) -> Result<[f32; 3], String> {
@@ -319,18 +373,23 @@ pub fn evaluate_with_progress(
     Ok(out)
 }
 
-/// `value` as pretty JSON bytes with a final newline.
-pub fn json_bytes(value: &serde_json::Value) -> Result<Vec<u8>> {
-    let mut text = serde_json::to_string_pretty(value)?;
-    text.push('\n');
-    Ok(text.into_bytes())
+/// Write a generated toolpath (the folder layout `plan` reads) and its
+/// `summary` as summary.json into `out`, at once.
+pub fn write_generated(out: &Path, toolpath: &Toolpath, summary: &serde_json::Value) -> Result<()> {
+    let mut files = toolpath_files(toolpath);
+    files.push(("summary.json".into(), pretty_bytes(summary)));
+    write_folder_atomic(out, &files).map_err(|e| {
+        UsageError(format!(
+            "{}: cannot write ({e}): check the parent folder exists and is writable",
+            out.display()
+        ))
+    })?;
+    Ok(())
 }
 
 /// Serialise `value` as pretty JSON to `path`, atomically.
-pub fn write_json(path: &std::path::Path, value: &serde_json::Value) -> Result<()> {
-    let mut text = serde_json::to_string_pretty(value)?;
-    text.push('\n');
-    maamplan::io::output::write_atomic(path, text.as_bytes()).map_err(|e| {
+pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
+    maamplan::io::output::write_atomic(path, &pretty_bytes(value)).map_err(|e| {
         UsageError(format!(
             "{}: cannot write ({e}): check the folder exists and is writable",
             path.display()

@@ -2,17 +2,24 @@
 //! report.
 
 use super::progress::Reporter;
-use super::{BackendKind, SceneArgs, UsageError};
+use super::{check_output, load_machine_or_default, BackendKind, SceneArgs, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use maamplan::io::gcode::{write_gcode, GcodeHeader};
-use maamplan::io::output::write_atomic;
+use maamplan::io::output::{write_atomic, write_folder_atomic, FolderFile};
 use maamplan::io::plan_csv::write_plan_csv;
-use maamplan::kinematics::{load_machine, Machine};
+use maamplan::job::LoadedJob;
+use maamplan::kinematics::Machine;
 use maamplan::plan::candidates::Sampling;
 use maamplan::plan::smooth::Smoothing;
-use maamplan::plan::{plan_prepared, PlanOptions, Prepared, Skip};
-use serde_json::json;
+use maamplan::plan::{plan_prepared, Plan, PlanOptions, Prepared, Skip};
+use maamplan::report::html::{report_html, ReportContext};
+use maamplan::report::json::{
+    plan_report, pretty_bytes, skipped_waypoints, PlanRun, SkippedWaypoint,
+};
+use maamplan::report::plots::figure_files;
+use maamplan::report::scene_glb::scene_glb;
+use maamplan::report::summary_rows;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -109,115 +116,86 @@ pub struct PlanArgs {
 #[error("{0}")]
 pub struct StrictError(pub String);
 
-/// Check before any work that `out` can become the output folder: not a
-/// file, and its nearest existing ancestor a writable folder.
-pub(crate) fn check_output(out: &Path) -> Result<()> {
-    if out.exists() && !out.is_dir() {
-        return Err(UsageError(format!(
-            "{}: is a file, not a folder: give -o a folder to write the plan into",
-            out.display()
-        ))
-        .into());
+impl PlanArgs {
+    /// The angles, steps and margin within the ranges the planner is
+    /// meant for.
+    fn check_ranges(&self) -> Result<()> {
+        for (name, v, lo, hi) in [
+            ("--alpha", self.alpha, 0.0, 45.0),
+            ("--beta", self.beta, 1.0, 90.0),
+            ("--cone", self.cone, 0.1, 90.0),
+            ("--edge-step", self.edge_step, 0.01, 10.0),
+            ("--margin", self.margin.unwrap_or(0.05), 0.0, 10.0),
+        ] {
+            if !(v >= lo && v <= hi) {
+                return Err(UsageError(format!("{name} must be between {lo} and {hi}")).into());
+            }
+        }
+        Ok(())
     }
-    let mut anc = out;
-    while !anc.exists() {
-        anc = match anc.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p,
-            _ => Path::new("."),
-        };
+
+    /// The planner's settings from the flags.
+    fn plan_options(&self) -> PlanOptions {
+        PlanOptions {
+            smoothing: match self.smoothing {
+                SmoothingKind::Laplacian => Smoothing::Laplacian {
+                    passes: self.passes,
+                },
+                SmoothingKind::MovingAverage => Smoothing::MovingAverage {
+                    window: self.window,
+                    cone_deg: self.cone,
+                },
+                SmoothingKind::Median => Smoothing::Median {
+                    window: self.window,
+                    cone_deg: self.cone,
+                },
+                SmoothingKind::None => Smoothing::None,
+            },
+            alpha: self.alpha.to_radians(),
+            beta: self.beta.to_radians(),
+            sampling: if self.rings {
+                Sampling::Rings
+            } else {
+                Sampling::Random {
+                    k: self.variants.max(1),
+                }
+            },
+            edge_step: self.edge_step,
+            subsample: self.subsample.max(1),
+            margin: self.margin,
+            ..PlanOptions::default()
+        }
     }
-    if !anc.is_dir() {
-        return Err(UsageError(format!(
-            "{}: cannot create the output folder {} inside a file",
-            anc.display(),
-            out.display()
-        ))
-        .into());
-    }
-    tempfile::Builder::new()
-        .prefix(".maamplan-probe-")
-        .tempdir_in(anc)
-        .map_err(|e| {
-            UsageError(format!(
-                "{}: cannot write there ({e}): choose another -o folder",
-                anc.display()
-            ))
-        })?;
-    Ok(())
 }
 
 /// Run `plan`.
 pub fn run(a: PlanArgs) -> Result<()> {
-    if let Some(p) = &a.write_machine {
-        write_atomic(p, Machine::default().to_toml().as_bytes())
-            .with_context(|| format!("{}: cannot write the machine file", p.display()))?;
-        println!("wrote the default machine to {}", p.display());
-        return Ok(());
+    if let Some(path) = &a.write_machine {
+        return write_default_machine(path);
     }
     let out = a.out.clone().expect("clap requires -o");
-    for (name, v, lo, hi) in [
-        ("--alpha", a.alpha, 0.0, 45.0),
-        ("--beta", a.beta, 1.0, 90.0),
-        ("--cone", a.cone, 0.1, 90.0),
-        ("--edge-step", a.edge_step, 0.01, 10.0),
-        ("--margin", a.margin.unwrap_or(0.05), 0.0, 10.0),
-    ] {
-        if !(v >= lo && v <= hi) {
-            return Err(UsageError(format!("{name} must be between {lo} and {hi}")).into());
-        }
-    }
+    a.check_ranges()?;
     check_output(&out)?;
     let t0 = Instant::now();
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
-    let machine = match &a.machine {
-        Some(p) => load_machine(p)?,
-        None => Machine::default(),
-    };
-    let opts = PlanOptions {
-        smoothing: match a.smoothing {
-            SmoothingKind::Laplacian => Smoothing::Laplacian { passes: a.passes },
-            SmoothingKind::MovingAverage => Smoothing::MovingAverage {
-                window: a.window,
-                cone_deg: a.cone,
-            },
-            SmoothingKind::Median => Smoothing::Median {
-                window: a.window,
-                cone_deg: a.cone,
-            },
-            SmoothingKind::None => Smoothing::None,
-        },
-        alpha: a.alpha.to_radians(),
-        beta: a.beta.to_radians(),
-        sampling: if a.rings {
-            Sampling::Rings
-        } else {
-            Sampling::Random {
-                k: a.variants.max(1),
-            }
-        },
-        edge_step: a.edge_step,
-        subsample: a.subsample.max(1),
-        margin: a.margin,
-        ..PlanOptions::default()
-    };
+    let machine = load_machine_or_default(a.machine.as_deref())?;
+    let opts = a.plan_options();
     // Stages 1 and 2 need only the toolpath: they run while the scene is
     // built, and the GPU opens meanwhile.
     let opening = a.backend.open();
     let (job, prepared) = a
         .scene
         .load_beside(|toolpath| Prepared::new(toolpath, &machine, &opts))?;
-    let scene = &job.scene;
     let backend = a
         .backend
-        .build_with(opening, scene, !a.quiet, Default::default())?;
-    let load_s = t0.elapsed().as_secs_f64();
-    show.stage_line("load", load_s, None);
-    show.note(&scene.head_cache.to_string());
-
+        .build_with(opening, &job.scene, !a.quiet, Default::default())?;
+    let mut stages = vec![("load".to_string(), t0.elapsed().as_secs_f64())];
+    show.stage_line("load", stages[0].1, None);
+    show.note(&job.scene.head_cache.to_string());
     let p = plan_prepared(
         prepared,
-        scene,
+        &job.scene,
         &machine,
         backend.as_ref(),
         &opts,
@@ -226,45 +204,181 @@ pub fn run(a: PlanArgs) -> Result<()> {
     if let Some(line) = backend.summary() {
         show.note(&line);
     }
-
-    let layer_name = |l: usize| job.toolpath.layers[l].name.clone();
-    let skipped: Vec<serde_json::Value> = p
-        .waypoints
-        .iter()
-        .enumerate()
-        .filter_map(|(g, w)| {
-            w.skipped.map(|why| {
-                json!({"index": g, "layer": w.layer, "layer_name": layer_name(w.layer), "reason": why})
-            })
-        })
-        .collect();
-    if a.strict && !skipped.is_empty() {
-        let n_res = p
-            .waypoints
-            .iter()
-            .filter(|w| w.skipped == Some(Skip::Residual))
-            .count();
-        return Err(StrictError(format!(
-            "--strict: {} waypoint(s) cannot be printed safely ({} with no safe orientation, {} out of the axis ranges; first: waypoint {}); nothing written",
-            skipped.len(),
-            n_res,
-            skipped.len() - n_res,
-            skipped[0]["index"]
-        ))
-        .into());
+    let skipped = skipped_waypoints(&p, &job.toolpath);
+    if a.strict {
+        refuse_skips(&skipped)?;
     }
-
-    // Planned: what is left is output. The program and the report are
-    // independent and written side by side.
+    // Planned: what is left is output.
     let seconds = t0.elapsed().as_secs_f64();
     show.begin("writing");
+    stages.extend(p.stages.iter().map(|s| (s.name.clone(), s.seconds)));
     let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let header = GcodeHeader {
-        source: job.source.clone(),
-        command: command.clone(),
+    let flipped = job.flipped_names();
+    let context = ReportContext {
+        source: &job.source,
+        command: &command,
+        flipped_layers: &flipped,
     };
-    // Everything goes into a scratch folder beside DIR first; only when all
-    // of it exists is it moved into DIR, so a failed run leaves nothing.
+    let rendered = Rendered::new(&machine, &p, &job, &context, seconds, !a.no_plots, &show)?;
+    stages.extend(rendered.stages.iter().cloned());
+    let report = plan_report(
+        &machine,
+        &p,
+        &skipped,
+        &PlanRun {
+            source: &job.source,
+            backend: backend.name(),
+            flipped_layers: &flipped,
+            stages: &stages,
+            seconds: t0.elapsed().as_secs_f64(),
+            command: &command,
+        },
+    );
+    let files = rendered.into_files(pretty_bytes(&report));
+    write_output(&out, &files)?;
+    show.finish();
+    if !a.quiet {
+        let written = Written {
+            out: &out,
+            names: top_level_names(&files),
+        };
+        print_summary(&job, &p, &flipped, (seconds, t0), backend.name(), &written);
+    }
+    // The command ends the process: the OS takes back the scene and the
+    // plan at once, faster than freeing them piece by piece.
+    drop(backend);
+    std::mem::forget(p);
+    std::mem::forget(job);
+    Ok(())
+}
+
+/// `--write-machine`: the built-in machine as a file to start from.
+fn write_default_machine(path: &Path) -> Result<()> {
+    write_atomic(path, Machine::default().to_toml().as_bytes())
+        .with_context(|| format!("{}: cannot write the machine file", path.display()))?;
+    println!("wrote the default machine to {}", path.display());
+    Ok(())
+}
+
+/// `--strict`: fail, before anything is written, where the plan skips
+/// waypoints.
+fn refuse_skips(skipped: &[SkippedWaypoint]) -> Result<()> {
+    let Some(first) = skipped.first() else {
+        return Ok(());
+    };
+    let residual = skipped
+        .iter()
+        .filter(|s| s.reason == Skip::Residual)
+        .count();
+    Err(StrictError(format!(
+        "--strict: {} waypoint(s) cannot be printed safely ({} with no safe orientation, {} out of the axis ranges; first: waypoint {}); nothing written",
+        skipped.len(),
+        residual,
+        skipped.len() - residual,
+        first.index
+    ))
+    .into())
+}
+
+/// What `plan` writes besides report.json, rendered in memory: the
+/// program and the CSV, and unless `--no-plots` the report's files.
+struct Rendered {
+    gcode: String,
+    csv: String,
+    report: Option<ReportFiles>,
+    /// Seconds of the `write` stage (the program and the CSV) and of the
+    /// `report` stage.
+    stages: Vec<(String, f64)>,
+}
+
+/// The scene, the page and the plots folder.
+struct ReportFiles {
+    glb: Vec<u8>,
+    html: String,
+    plots: Vec<FolderFile>,
+}
+
+impl Rendered {
+    /// Render the outputs of plan `p`; the program and the report are
+    /// independent and rendered side by side, as are the figures and the
+    /// scene.
+    fn new(
+        machine: &Machine,
+        p: &Plan,
+        job: &LoadedJob,
+        context: &ReportContext,
+        seconds: f64,
+        plots: bool,
+        show: &Reporter,
+    ) -> Result<Self> {
+        let header = GcodeHeader {
+            source: job.source.clone(),
+            command: context.command.to_string(),
+        };
+        let (program, drawn) = rayon::join(
+            || {
+                let t = Instant::now();
+                let (gcode, csv) = rayon::join(
+                    || write_gcode(machine, &p.program, &header),
+                    || write_plan_csv(machine, &p.waypoints),
+                );
+                (gcode, csv, t.elapsed().as_secs_f64())
+            },
+            || {
+                plots.then(|| {
+                    let t = Instant::now();
+                    let (figures, glb) = rayon::join(
+                        || figure_files(machine, p),
+                        || scene_glb(&job.scene, p, machine),
+                    );
+                    (figures, glb, t)
+                })
+            },
+        );
+        let (gcode, csv, write_s) = program;
+        show.stage_line("write", write_s, None);
+        let mut stages = vec![("write".to_string(), write_s)];
+        let report = match drawn {
+            None => None,
+            Some((figures, glb, t)) => {
+                show.begin("report");
+                let (figures, plots) =
+                    figures.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+                let html = report_html(context, machine, p, &figures, seconds);
+                let report_s = t.elapsed().as_secs_f64();
+                show.stage_line("report", report_s, None);
+                stages.push(("report".to_string(), report_s));
+                Some(ReportFiles { glb, html, plots })
+            }
+        };
+        Ok(Rendered {
+            gcode,
+            csv,
+            report,
+            stages,
+        })
+    }
+
+    /// The output folder's files, report.json's `report_json` among them,
+    /// in the order they are listed to the user.
+    fn into_files(self, report_json: Vec<u8>) -> Vec<FolderFile> {
+        let mut files = vec![
+            ("toolpath.gcode".into(), self.gcode.into_bytes()),
+            ("plan.csv".into(), self.csv.into_bytes()),
+            ("report.json".into(), report_json),
+        ];
+        if let Some(r) = self.report {
+            files.push(("scene.glb".into(), r.glb));
+            files.push(("report.html".into(), r.html.into_bytes()));
+            files.extend(r.plots);
+        }
+        files
+    }
+}
+
+/// Write `files` into the output folder `out` at once: a failed run
+/// leaves nothing ([`write_folder_atomic`]).
+fn write_output(out: &Path, files: &[FolderFile]) -> Result<()> {
     let parent = out
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -275,145 +389,41 @@ pub fn run(a: PlanArgs) -> Result<()> {
             parent.display()
         ))
     })?;
-    let scratch = tempfile::Builder::new()
-        .prefix(".maamplan-")
-        .tempdir_in(parent)
-        .map_err(|e| UsageError(format!("{}: cannot write there ({e})", parent.display())))?;
-    let put = |name: &str, bytes: &[u8]| -> Result<()> {
-        std::fs::write(scratch.path().join(name), bytes).with_context(|| format!("writing {name}"))
-    };
-    let (written, drawn) = rayon::join(
-        || -> Result<f64> {
-            let t = Instant::now();
-            let (gcode, csv) = rayon::join(
-                || write_gcode(&machine, &p.program, &header),
-                || write_plan_csv(&machine, &p.waypoints),
-            );
-            put("toolpath.gcode", gcode.as_bytes())?;
-            put("plan.csv", csv.as_bytes())?;
-            Ok(t.elapsed().as_secs_f64())
-        },
-        || {
-            (!a.no_plots).then(|| {
-                let t = Instant::now();
-                // The figures and the scene file are independent too.
-                let (figs, glb) = rayon::join(
-                    || {
-                        maamplan::report::plots::write_figures(
-                            &machine,
-                            &p,
-                            &scratch.path().join("plots"),
-                        )
-                    },
-                    || maamplan::report::scene_glb::scene_glb(scene, &p, &machine),
-                );
-                (figs, glb, t)
-            })
-        },
-    );
-    let write_s = written?;
-    show.stage_line("write", write_s, None);
-    let mut stages = serde_json::Map::new();
-    stages.insert("load".into(), json!(load_s));
-    for s in &p.stages {
-        stages.insert(s.name.clone(), json!(s.seconds));
-    }
-    stages.insert("write".into(), json!(write_s));
-    let mut files = vec![
-        "toolpath.gcode".to_string(),
-        "plan.csv".to_string(),
-        "report.json".to_string(),
-    ];
-    let flipped = job.flipped_names();
-    if let Some((figs, glb, t2)) = drawn {
-        show.begin("report");
-        let figs = figs.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-        put("scene.glb", &glb)?;
-        let html = maamplan::report::html::report_html(
-            &maamplan::report::html::ReportContext {
-                source: &job.source,
-                command: &command,
-                flipped_layers: &flipped,
-            },
-            &machine,
-            &p,
-            &figs,
-            seconds,
-        );
-        put("report.html", html.as_bytes())?;
-        let report_s = t2.elapsed().as_secs_f64();
-        show.stage_line("report", report_s, None);
-        stages.insert("report".into(), json!(report_s));
-        files.extend([
-            "scene.glb".to_string(),
-            "report.html".to_string(),
-            "plots".to_string(),
-        ]);
-    }
-    let report = json!({
-        "source": job.source,
-        "backend": backend.name(),
-        "machine": machine,
-        "margin": p.margin,
-        "flipped_layers": flipped,
-        "input": p.input,
-        "plan": p.plan,
-        "skipped": skipped,
-        "warnings": p.warnings,
-        "collision_queries": p.queries,
-        "seconds": t0.elapsed().as_secs_f64(),
-        "stages": stages,
-        "command": command,
-    });
-    let mut text = serde_json::to_string_pretty(&report)?;
-    text.push('\n');
-    put("report.json", text.as_bytes())?;
-    std::fs::create_dir_all(&out).map_err(|e| {
-        UsageError(format!(
-            "{}: cannot create the output folder ({e})",
-            out.display()
-        ))
-    })?;
-    for f in &files {
-        let dst = out.join(f);
-        if dst.is_dir() {
-            std::fs::remove_dir_all(&dst)
-                .with_context(|| format!("replacing {}", dst.display()))?;
-        }
-        std::fs::rename(scratch.path().join(f), &dst)
-            .map_err(|e| UsageError(format!("{}: cannot write ({e})", dst.display())))?;
-    }
-    show.finish();
-    if !a.quiet {
-        print_summary(
-            &job,
-            &p,
-            &flipped,
-            (seconds, t0),
-            backend.name(),
-            &out,
-            &files,
-        );
-    }
-    // The command ends the process: the OS takes back the scene and the
-    // plan at once, where freeing them piece by piece took 0.13 s of
-    // dome_cut's run.
-    drop(backend);
-    std::mem::forget(p);
-    std::mem::forget(job);
+    write_folder_atomic(out, files)
+        .map_err(|e| UsageError(format!("{}: cannot write ({e})", out.display())))?;
     Ok(())
+}
+
+/// The entries of the output folder `files` make (a file, or a folder
+/// such as `plots`), in their order.
+fn top_level_names(files: &[FolderFile]) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for (path, _) in files {
+        if let Some(top) = path.components().next() {
+            let top = top.as_os_str().to_string_lossy().into_owned();
+            if !names.contains(&top) {
+                names.push(top);
+            }
+        }
+    }
+    names
+}
+
+/// Where `plan` wrote: the folder and its entries.
+struct Written<'a> {
+    out: &'a Path,
+    names: Vec<String>,
 }
 
 /// What `plan` prints when it is done: warnings, flipped layers, the
 /// input and plan side by side, and where it wrote.
 fn print_summary(
-    job: &maamplan::job::Job,
-    p: &maamplan::plan::Plan,
+    job: &LoadedJob,
+    p: &Plan,
     flipped: &[String],
     (seconds, t0): (f64, Instant),
     backend: &str,
-    out: &Path,
-    files: &[String],
+    written: &Written,
 ) {
     for w in &p.warnings {
         eprintln!("warning: {w}");
@@ -426,7 +436,7 @@ fn print_summary(
         );
     }
     println!("{:<36} {:>12} {:>14}", "", "input", "plan");
-    for (k, i, pl) in maamplan::report::summary_rows(&p.input, &p.plan) {
+    for (k, i, pl) in summary_rows(&p.input, &p.plan) {
         println!("{k:<36} {i:>12} {pl:>14}");
     }
     println!(
@@ -435,7 +445,7 @@ fn print_summary(
         seconds,
         t0.elapsed().as_secs_f64(),
         backend,
-        out.display(),
-        files.join(", ")
+        written.out.display(),
+        written.names.join(", ")
     );
 }

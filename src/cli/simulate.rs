@@ -2,21 +2,26 @@
 //! in the same vocabulary) read back, checked and measured as the machine
 //! would run it; the wiring of [`maamplan::simulate`]'s stages.
 
-use super::plan::check_output;
 use super::progress::Reporter;
-use super::{machine_and_margin, BackendKind, SceneArgs, UsageError};
+use super::{check_output, machine_and_margin, BackendKind, SceneArgs, UsageError};
 use anyhow::{Context, Result};
 use clap::Args;
-use maamplan::io::gcode_read::read_program;
+use maamplan::default_job::default_head;
+use maamplan::io::gcode_read::load_program;
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
+use maamplan::job::scene_config;
+use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions, Progress};
-use maamplan::scene::{HeadConfig, Scene, SceneConfig};
+use maamplan::report::html::{simulation_html, ReportContext};
+use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
+use maamplan::report::moves_csv::write_moves_csv;
+use maamplan::report::plots::simulation_figures;
+use maamplan::scene::Scene;
 use maamplan::simulate::{self, ProblemKind, Simulation};
 use maamplan::toolpath::Toolpath;
-use serde_json::json;
 use std::fmt::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 /// Arguments of `simulate`.
@@ -67,18 +72,15 @@ fn load_scene(a: &SimulateArgs) -> Result<(String, Toolpath, Scene)> {
     };
     let head = match &a.scene.head {
         Some(p) => load_mesh(p)?,
-        None => maamplan::default_job::cone_head(20.0, 20.0, 30.0, 64),
-    };
-    let cfg = SceneConfig {
-        head: HeadConfig {
-            tip_clearance: a.scene.clearance,
-            ..HeadConfig::default()
-        },
-        max_edge: None,
-        head_cache: true,
+        None => default_head(),
     };
     let tp = Toolpath::default();
-    let scene = Scene::build(&tp, &head, &load_mesh(platform)?, &cfg)?;
+    let scene = Scene::build(
+        &tp,
+        &head,
+        &load_mesh(platform)?,
+        &scene_config(a.scene.clearance),
+    )?;
     Ok(("platform only".into(), tp, scene))
 }
 
@@ -89,21 +91,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if let Some(out) = &a.out {
         check_output(out)?;
     }
-    let text = std::fs::read_to_string(&a.gcode).map_err(|e| {
-        UsageError(format!(
-            "{}: cannot read the program ({e}): check the path",
-            a.gcode.display()
-        ))
-    })?;
-    let moves = read_program(&text, &machine)
-        .map_err(|e| UsageError(format!("{}:{}: {}", a.gcode.display(), e.line, e.msg)))?;
-    if moves.is_empty() {
-        return Err(UsageError(format!(
-            "{}: no G0/G1 motion found: is this a G-code program?",
-            a.gcode.display()
-        ))
-        .into());
-    }
+    let moves = load_program(&a.gcode, &machine)?;
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
     let (source, toolpath, mut scene) = load_scene(&a)?;
@@ -138,48 +126,21 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let sim = simulate::report(&machine, &moves, &timeline, &collides, queries, margin);
     show.stage_line("measure", t3.elapsed().as_secs_f64(), None);
 
-    let command = std::env::args().collect::<Vec<_>>().join(" ");
-    let mut written = Vec::new();
-    if let Some(out) = &a.out {
-        let layer_names: Vec<String> = toolpath.layers.iter().map(|l| l.name.clone()).collect();
-        let doc = json!({
-            "gcode": a.gcode.display().to_string(),
-            "toolpath": source,
-            "backend": backend.name(),
-            "machine": machine,
-            "summary": sim.summary,
-            "problems": sim.problems.iter().map(|p| json!({
-                "line": p.line,
-                "kind": p.kind,
-                "value": p.value,
-                "layer": p.layer.map(|l| layer_names.get(l).cloned().unwrap_or_default()),
-            })).collect::<Vec<_>>(),
-            "seconds": t0.elapsed().as_secs_f64(),
-            "command": command,
-        });
-        let mut files = vec![
-            (PathBuf::from("report.json"), super::json_bytes(&doc)?),
-            (PathBuf::from("moves.csv"), moves_csv(&sim).into_bytes()),
-        ];
-        if !a.no_plots {
-            let figs = maamplan::report::plots::simulation_figures(&machine, &sim)
-                .map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-            let html = maamplan::report::html::simulation_html(
-                &maamplan::report::html::ReportContext {
-                    source: &format!("{} ({})", a.gcode.display(), source),
-                    command: &command,
-                    flipped_layers: &[],
-                },
-                &machine,
-                &sim,
-                &figs,
-            );
-            files.push((PathBuf::from("report.html"), html.into_bytes()));
+    let written = match &a.out {
+        Some(out) => {
+            let layer_names: Vec<String> = toolpath.layers.iter().map(|l| l.name.clone()).collect();
+            let run = SimulationRun {
+                gcode: &a.gcode.display().to_string(),
+                toolpath: &source,
+                layer_names: &layer_names,
+                backend: backend.name(),
+                seconds: t0.elapsed().as_secs_f64(),
+                command: &std::env::args().collect::<Vec<_>>().join(" "),
+            };
+            write_outputs(out, &machine, &sim, &run, !a.no_plots)?
         }
-        written = files.iter().map(|f| f.0.display().to_string()).collect();
-        write_folder_atomic(out, &files)
-            .with_context(|| format!("{}: cannot write the report", out.display()))?;
-    }
+        None => Vec::new(),
+    };
     show.finish();
     if a.quiet {
         return Ok(());
@@ -200,6 +161,45 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         }
     );
     Ok(())
+}
+
+/// Write report.json, moves.csv and (with `plots`) report.html into `out`
+/// at once; returns their names.
+fn write_outputs(
+    out: &Path,
+    machine: &Machine,
+    sim: &Simulation,
+    run: &SimulationRun,
+    plots: bool,
+) -> Result<Vec<String>> {
+    let mut files = vec![
+        (
+            PathBuf::from("report.json"),
+            pretty_bytes(&simulation_report(machine, sim, run)),
+        ),
+        (
+            PathBuf::from("moves.csv"),
+            write_moves_csv(sim).into_bytes(),
+        ),
+    ];
+    if plots {
+        let figs = simulation_figures(machine, sim)
+            .map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+        let html = simulation_html(
+            &ReportContext {
+                source: &format!("{} ({})", run.gcode, run.toolpath),
+                command: run.command,
+                flipped_layers: &[],
+            },
+            machine,
+            sim,
+            &figs,
+        );
+        files.push((PathBuf::from("report.html"), html.into_bytes()));
+    }
+    write_folder_atomic(out, &files)
+        .with_context(|| format!("{}: cannot write the report", out.display()))?;
+    Ok(files.iter().map(|f| f.0.display().to_string()).collect())
 }
 
 /// The terminal summary: the numbers, then the first problems of each kind
@@ -270,33 +270,6 @@ fn summary_text(sim: &Simulation, verbose: bool) -> String {
             } else {
                 String::new()
             }
-        );
-    }
-    t
-}
-
-/// Every measured line as CSV.
-fn moves_csv(sim: &Simulation) -> String {
-    let mut t = String::from(
-        "line,extrudes,tcp,layer,seconds,length_mm,tip_speed,deviation_mm,rotary_step_deg,tilt_deg,c_deg,e_per_mm,collides\n",
-    );
-    for r in &sim.moves {
-        let _ = writeln!(
-            t,
-            "{},{},{},{},{:.6},{:.4},{:.4},{:.4},{:.3},{:.3},{:.3},{:.5},{}",
-            r.line,
-            r.extrudes as u8,
-            r.tcp as u8,
-            r.layer.map_or(String::new(), |l| l.to_string()),
-            r.seconds,
-            r.length_mm,
-            r.tip_speed,
-            r.deviation_mm,
-            r.rotary_step_deg,
-            r.tilt_deg,
-            r.c_deg,
-            r.e_per_mm,
-            r.collides as u8
         );
     }
     t

@@ -2,13 +2,11 @@
 //! filled with a zig-zag, one-way or MZZ raster → a toolpath folder and a
 //! summary with per-layer printing and travel length.
 
-use super::{parse_xyz, UsageError};
+use super::{parse_xyz, write_generated, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use maamplan::generate::{slice, Fill, SliceOptions};
 use maamplan::io::mesh::load_mesh;
-use maamplan::io::output::write_folder_atomic;
-use maamplan::io::toolpath::toolpath_files;
 use serde_json::json;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -93,14 +91,7 @@ pub fn run(a: SliceArgs) -> Result<()> {
         },
         "seconds": t0.elapsed().as_secs_f64(),
     });
-    let mut files = toolpath_files(&r.toolpath);
-    files.push(("summary.json".into(), super::json_bytes(&summary)?));
-    write_folder_atomic(&out, &files).map_err(|e| {
-        UsageError(format!(
-            "{}: cannot write ({e}): check the parent folder exists and is writable",
-            out.display()
-        ))
-    })?;
+    write_generated(&out, &r.toolpath, &summary)?;
     println!(
         "{} layers, {} waypoints, print {:.1} mm, travel {:.1} mm ({}) → {}",
         r.layers.len(),

@@ -11,41 +11,33 @@
 //! mirror-symmetric curvatures.
 
 use crate::geometry::Mesh;
+use glam::DVec3;
 
 /// The local geometry at one vertex.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LocalFrame {
     /// Vertex position (mm).
-    pub origin: [f64; 3],
+    pub origin: DVec3,
     /// Unit surface normal.
-    pub normal: [f64; 3],
+    pub normal: DVec3,
     /// First tangent axis.
-    pub e1: [f64; 3],
+    pub e1: DVec3,
     /// Second tangent axis, `normal × e1`.
-    pub e2: [f64; 3],
+    pub e2: DVec3,
     /// The fitted quadric's coefficients `[a, b, c, d, e]` (height along
     /// the normal over the tangent axes).
     pub quad: [f64; 5],
 }
 
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-pub(crate) fn normalised(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
+/// `v` scaled to unit length by dividing by its length (glam's
+/// `normalize` multiplies by the reciprocal, which can round differently
+/// and would move the generated waypoints); a zero vector stays zero.
+pub(crate) fn unit(v: DVec3) -> DVec3 {
+    let l = v.length();
     if l > 0.0 {
-        a.map(|x| x / l)
+        v / l
     } else {
-        a
+        v
     }
 }
 
@@ -53,51 +45,46 @@ impl LocalFrame {
     /// Normal curvature along the unit tangent `t` (world frame): positive
     /// where the surface bends away from its normal (convex, like the top
     /// of a dome whose normal points up).
-    pub fn convex_curvature(&self, t: [f64; 3]) -> f64 {
-        let (x, y) = (dot(t, self.e1), dot(t, self.e2));
+    pub fn convex_curvature(&self, t: DVec3) -> f64 {
+        let (x, y) = (t.dot(self.e1), t.dot(self.e2));
         let [a, b, c, ..] = self.quad;
         -2.0 * (a * x * x + b * x * y + c * y * y) / (x * x + y * y).max(1e-300)
     }
 
     /// The fitted surface's unit normal at the tangent offset `t` (world
     /// frame, mm) from the vertex.
-    pub fn normal_at(&self, t: [f64; 3]) -> [f64; 3] {
-        let (x, y) = (dot(t, self.e1), dot(t, self.e2));
+    pub fn normal_at(&self, t: DVec3) -> DVec3 {
+        let (x, y) = (t.dot(self.e1), t.dot(self.e2));
         let [a, b, c, d, e] = self.quad;
         let (gx, gy) = (2.0 * a * x + b * y + d, b * x + 2.0 * c * y + e);
-        normalised([0, 1, 2].map(|k| self.normal[k] - gx * self.e1[k] - gy * self.e2[k]))
+        unit(self.normal - self.e1 * gx - self.e2 * gy)
     }
+}
+
+/// A mesh vertex in f64.
+fn vertex(mesh: &Mesh, i: u32) -> DVec3 {
+    DVec3::from(mesh.vertices[i as usize].map(f64::from))
 }
 
 /// Area-weighted vertex normals (zero for unused vertices).
-pub fn vertex_normals(mesh: &Mesh) -> Vec<[f64; 3]> {
-    let mut n = vec![[0.0f64; 3]; mesh.vertices.len()];
-    let p = |i: u32| mesh.vertices[i as usize].map(|x| x as f64);
+pub fn vertex_normals(mesh: &Mesh) -> Vec<DVec3> {
+    let mut n = vec![DVec3::ZERO; mesh.vertices.len()];
     for t in &mesh.triangles {
-        let (a, b, c) = (p(t[0]), p(t[1]), p(t[2]));
-        let f = cross(
-            [0, 1, 2].map(|k| b[k] - a[k]),
-            [0, 1, 2].map(|k| c[k] - a[k]),
-        );
+        let [a, b, c] = t.map(|i| vertex(mesh, i));
+        let f = (b - a).cross(c - a);
         for &v in t {
-            for k in 0..3 {
-                n[v as usize][k] += f[k];
-            }
+            n[v as usize] += f;
         }
     }
-    n.into_iter().map(normalised).collect()
+    n.into_iter().map(unit).collect()
 }
 
-/// Tangent axes for a unit normal.
-fn tangents(n: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let e = if n[0].abs() > 0.9 {
-        [0.0, 1.0, 0.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let en = dot(e, n);
-    let e1 = normalised([0, 1, 2].map(|k| e[k] - en * n[k]));
-    (e1, cross(n, e1))
+/// Tangent axes `(e1, e2)` for a unit normal `n`, `e1 × e2 = n`: `e1` is x
+/// (or y, where `n` is nearly along x) with its part along `n` removed.
+pub fn tangent_axes(n: DVec3) -> (DVec3, DVec3) {
+    let e = if n.x.abs() > 0.9 { DVec3::Y } else { DVec3::X };
+    let e1 = unit(e - n * e.dot(n));
+    (e1, n.cross(e1))
 }
 
 /// Solve the small dense system `m x = r` by Gaussian elimination with
@@ -131,13 +118,13 @@ fn solve<const N: usize>(mut m: [[f64; N]; N], mut r: [f64; N]) -> Option<[f64; 
 /// Least-squares quadric through `pts` (offsets from the vertex) in the
 /// frame `(e1, e2, n)`; a pure quadratic when the full fit is singular,
 /// flat when that is too.
-fn fit_quadric(pts: &[[f64; 3]], e1: [f64; 3], e2: [f64; 3], n: [f64; 3]) -> [f64; 5] {
+fn fit_quadric(pts: &[DVec3], e1: DVec3, e2: DVec3, n: DVec3) -> [f64; 5] {
     let mut m5 = [[0.0; 5]; 5];
     let mut r5 = [0.0; 5];
     let mut m3 = [[0.0; 3]; 3];
     let mut r3 = [0.0; 3];
     for p in pts {
-        let (x, y, z) = (dot(*p, e1), dot(*p, e2), dot(*p, n));
+        let (x, y, z) = (p.dot(e1), p.dot(e2), p.dot(n));
         let row = [x * x, x * y, y * y, x, y];
         for i in 0..5 {
             for j in 0..5 {
@@ -177,10 +164,9 @@ pub fn local_frames(mesh: &Mesh) -> Vec<LocalFrame> {
         r.dedup();
     }
     let normals = vertex_normals(mesh);
-    let pos = |i: usize| mesh.vertices[i].map(|x| x as f64);
     (0..nv)
         .map(|v| {
-            let o = pos(v);
+            let o = vertex(mesh, v as u32);
             let mut ring: Vec<u32> = ring1[v]
                 .iter()
                 .flat_map(|&w| ring1[w as usize].iter().copied().chain([w]))
@@ -188,17 +174,11 @@ pub fn local_frames(mesh: &Mesh) -> Vec<LocalFrame> {
                 .collect();
             ring.sort_unstable();
             ring.dedup();
-            let pts: Vec<[f64; 3]> = ring
-                .iter()
-                .map(|&w| {
-                    let p = pos(w as usize);
-                    [0, 1, 2].map(|k| p[k] - o[k])
-                })
-                .collect();
+            let pts: Vec<DVec3> = ring.iter().map(|&w| vertex(mesh, w) - o).collect();
             let mut n = normals[v];
             let mut frame = None;
             for _ in 0..3 {
-                let (e1, e2) = tangents(n);
+                let (e1, e2) = tangent_axes(n);
                 let quad = fit_quadric(&pts, e1, e2, n);
                 let f = LocalFrame {
                     origin: o,
@@ -207,19 +187,19 @@ pub fn local_frames(mesh: &Mesh) -> Vec<LocalFrame> {
                     e2,
                     quad,
                 };
-                n = f.normal_at([0.0; 3]);
+                n = f.normal_at(DVec3::ZERO);
                 frame = Some(f);
             }
             let f = frame.expect("three iterations ran");
             // The last refit's normal, with the quadric of that frame.
-            let (e1, e2) = tangents(f.normal);
+            let (e1, e2) = tangent_axes(f.normal);
             LocalFrame { e1, e2, ..f }.refit(&pts)
         })
         .collect()
 }
 
 impl LocalFrame {
-    fn refit(self, pts: &[[f64; 3]]) -> LocalFrame {
+    fn refit(self, pts: &[DVec3]) -> LocalFrame {
         LocalFrame {
             quad: fit_quadric(pts, self.e1, self.e2, self.normal),
             ..self
@@ -230,33 +210,7 @@ impl LocalFrame {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// A grid over [-a, a]² with a centre vertex per cell (4 triangles per
-    /// cell: symmetric under both mirrors), heights from `f`.
-    pub(crate) fn grid(n: usize, a: f32, f: impl Fn(f32, f32) -> f32) -> Mesh {
-        let mut m = Mesh::default();
-        let h = 2.0 * a / n as f32;
-        for j in 0..=n {
-            for i in 0..=n {
-                let (x, y) = (-a + i as f32 * h, -a + j as f32 * h);
-                m.vertices.push([x, y, f(x, y)]);
-            }
-        }
-        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y) = (-a + (i as f32 + 0.5) * h, -a + (j as f32 + 0.5) * h);
-                let c = m.vertices.len() as u32;
-                m.vertices.push([x, y, f(x, y)]);
-                let (p00, p10, p11, p01) = (at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1));
-                m.triangles.push([p00, p10, c]);
-                m.triangles.push([p10, p11, c]);
-                m.triangles.push([p11, p01, c]);
-                m.triangles.push([p01, p00, c]);
-            }
-        }
-        m
-    }
+    use crate::default_job::height_field as grid;
 
     #[test]
     fn sphere_cap_and_saddle_curvatures() {
@@ -268,7 +222,7 @@ mod tests {
             .find(|f| f.origin[0].abs() < 1e-9 && f.origin[1].abs() < 1e-9)
             .unwrap();
         assert!((centre.normal[2] - 1.0).abs() < 1e-9);
-        let k = centre.convex_curvature([1.0, 0.0, 0.0]);
+        let k = centre.convex_curvature(DVec3::X);
         assert!((k - 0.05).abs() < 1e-3, "{k}");
         let saddle = grid(20, 5.0, |x, y| (x * x - y * y) / (2.0 * r));
         let f = local_frames(&saddle);
@@ -276,15 +230,12 @@ mod tests {
             .iter()
             .find(|f| f.origin[0].abs() < 1e-9 && f.origin[1].abs() < 1e-9)
             .unwrap();
-        let (kx, ky) = (
-            c.convex_curvature([1.0, 0.0, 0.0]),
-            c.convex_curvature([0.0, 1.0, 0.0]),
-        );
+        let (kx, ky) = (c.convex_curvature(DVec3::X), c.convex_curvature(DVec3::Y));
         assert!(
             (kx + 0.05).abs() < 1e-3 && (ky - 0.05).abs() < 1e-3,
             "{kx} {ky}"
         );
-        let tilted = c.normal_at([1.0, 0.0, 0.0]);
+        let tilted = c.normal_at(DVec3::X);
         assert!((tilted[0] + 0.05).abs() < 2e-3, "{tilted:?}");
     }
 }

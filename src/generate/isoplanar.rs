@@ -42,18 +42,19 @@
 //! chord. Curves alternate direction (zig-zag); the nozzle follows the
 //! surface normal (vertex normals interpolated along the section).
 
-use super::curvature::{cross, dot, local_frames, normalised, LocalFrame};
+use super::curvature::{local_frames, unit, LocalFrame};
 use super::section::{section, SectionPoint};
 use super::{validate, GenerateError};
 use crate::geometry::Mesh;
 use crate::kinematics::{inverse, wrap, Axes, Machine};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
+use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::f64::consts::PI;
 
 /// A sampled section piece: positions and nozzle directions.
-type Piece = (Vec<[f64; 3]>, Vec<[f64; 3]>);
+type Piece = (Vec<DVec3>, Vec<DVec3>);
 
 /// Iso-planar settings.
 #[derive(Clone, Debug, PartialEq)]
@@ -118,6 +119,13 @@ pub struct IsoplanarResult {
     pub travel_length: f64,
 }
 
+impl IsoplanarResult {
+    /// The drive planes' normal at θ* ([`drive_normal`]).
+    pub fn drive_plane_normal(&self) -> [f64; 3] {
+        drive_normal(self.theta_star_deg.to_radians()).to_array()
+    }
+}
+
 /// Effective width on a layer bent with convex normal curvature `kappa`
 /// (1/mm) across the bead (see the module comment).
 pub fn effective_width(nozzle: f64, height: f64, kappa: f64) -> f64 {
@@ -126,21 +134,21 @@ pub fn effective_width(nozzle: f64, height: f64, kappa: f64) -> f64 {
 }
 
 /// The feed direction at a frame for drive-plane normal `q`.
-fn feed_dir(fr: &LocalFrame, q: [f64; 3]) -> [f64; 3] {
-    let f = cross(fr.normal, q);
-    if dot(f, f) < 1e-12 {
+fn feed_dir(fr: &LocalFrame, q: DVec3) -> DVec3 {
+    let f = fr.normal.cross(q);
+    if f.dot(f) < 1e-12 {
         fr.e1
     } else {
-        normalised(f)
+        unit(f)
     }
 }
 
 /// Kinematics-limited feed rate at `fr` along the unit tangent `f`.
-pub fn feed_rate(m: &Machine, fr: &LocalFrame, f: [f64; 3], probe: f64) -> f64 {
+pub fn feed_rate(m: &Machine, fr: &LocalFrame, f: DVec3, probe: f64) -> f64 {
     let at = |sgn: f64| {
-        let t = f.map(|x| sgn * probe * x);
-        let p = [0, 1, 2].map(|k| (fr.origin[k] + t[k]) as f32);
-        let n = fr.normal_at(t).map(|x| x as f32);
+        let t = f * (sgn * probe);
+        let p = (fr.origin + t).as_vec3().to_array();
+        let n = fr.normal_at(t).as_vec3().to_array();
         inverse(m, p, n)
     };
     let (a, b) = (at(-1.0), at(1.0));
@@ -172,8 +180,8 @@ pub fn feed_rate(m: &Machine, fr: &LocalFrame, f: [f64; 3], probe: f64) -> f64 {
 }
 
 /// The drive-plane normal of angle θ (radians).
-pub fn drive_normal(theta: f64) -> [f64; 3] {
-    [theta.sin(), theta.cos(), 0.0]
+pub fn drive_normal(theta: f64) -> DVec3 {
+    DVec3::new(theta.sin(), theta.cos(), 0.0)
 }
 
 /// Per-vertex effective width, feed rate and deposition rate at θ.
@@ -183,7 +191,7 @@ fn vertex_rates(frames: &[LocalFrame], opts: &IsoplanarOptions, theta: f64) -> V
         .par_iter()
         .map(|fr| {
             let f = feed_dir(fr, q);
-            let k = cross(fr.normal, f);
+            let k = fr.normal.cross(f);
             let w = effective_width(opts.nozzle, opts.height, fr.convex_curvature(k));
             let feed = feed_rate(&opts.machine, fr, f, opts.feed_probe);
             [w, feed, PI * opts.height * w * feed]
@@ -209,30 +217,65 @@ pub fn deposition_curve(frames: &[LocalFrame], opts: &IsoplanarOptions) -> Vec<C
         .collect()
 }
 
-fn lerp3(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
-    [0, 1, 2].map(|k| a[k] + t * (b[k] - a[k]))
-}
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d = [0, 1, 2].map(|k| a[k] - b[k]);
-    dot(d, d).sqrt()
+/// The point a fraction `t` of the way from `a` to `b`.
+fn lerp(a: DVec3, b: DVec3, t: f64) -> DVec3 {
+    a + (b - a) * t
 }
 
 /// Distance from `p` to the segment `a b`.
-fn point_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
-    let ab = [0, 1, 2].map(|k| b[k] - a[k]);
-    let l2 = dot(ab, ab);
+fn point_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
+    let ab = b - a;
+    let l2 = ab.dot(ab);
     let t = if l2 > 0.0 {
-        (dot([0, 1, 2].map(|k| p[k] - a[k]), ab) / l2).clamp(0.0, 1.0)
+        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    dist(p, [0, 1, 2].map(|k| a[k] + t * ab[k]))
+    p.distance(a + ab * t)
 }
 
 /// Generate the iso-planar path on `mesh` (a manifold surface, open or
 /// closed, whose winding makes its normals point to the nozzle side).
 pub fn isoplanar(mesh: &Mesh, opts: &IsoplanarOptions) -> Result<IsoplanarResult, GenerateError> {
+    check_options(opts)?;
+    let mesh = validate::surface(mesh)?;
+    let frames = local_frames(&mesh);
+    let used = used_vertices(&mesh);
+    let sample: Vec<LocalFrame> = frames
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .map(|(f, _)| *f)
+        .collect();
+    let curve = deposition_curve(&sample, opts);
+    let star = fastest(&curve);
+    let sweep = Sweep::new(&mesh, &frames, &used, opts, star.theta_deg.to_radians());
+    let (curves, side_steps) = sweep.curves()?;
+    let join_limit = 2.0 * side_steps.iter().copied().fold(sweep.w_flat, f64::max);
+    let (waypoints, print_length, travel_length) = join_curves(&curves, join_limit);
+    if waypoints.is_empty() {
+        return Err(GenerateError::Parameter(
+            "no drive plane crosses the surface: is it flat along the drive direction?".into(),
+        ));
+    }
+    Ok(IsoplanarResult {
+        toolpath: Toolpath {
+            layers: vec![Layer {
+                name: "0".into(),
+                waypoints,
+                surface: Some(mesh),
+            }],
+        },
+        curve,
+        theta_star_deg: star.theta_deg,
+        side_steps,
+        print_length,
+        travel_length,
+    })
+}
+
+/// Every setting a positive number, the θ step at most 90°.
+fn check_options(opts: &IsoplanarOptions) -> Result<(), GenerateError> {
     for (name, v) in [
         ("nozzle width", opts.nozzle),
         ("layer height", opts.height),
@@ -252,139 +295,213 @@ pub fn isoplanar(mesh: &Mesh, opts: &IsoplanarOptions) -> Result<IsoplanarResult
             "the θ step must be at most 90°".into(),
         ));
     }
-    let mesh = validate::surface(mesh)?;
-    let frames = local_frames(&mesh);
-    let used: Vec<bool> = {
-        let mut u = vec![false; mesh.vertices.len()];
-        mesh.triangles
-            .iter()
-            .flatten()
-            .for_each(|&v| u[v as usize] = true);
-        u
-    };
-    let sample: Vec<LocalFrame> = frames
+    Ok(())
+}
+
+/// Per vertex: is it a corner of a triangle?
+fn used_vertices(mesh: &Mesh) -> Vec<bool> {
+    let mut used = vec![false; mesh.vertices.len()];
+    mesh.triangles
         .iter()
-        .zip(&used)
-        .filter(|(_, &u)| u)
-        .map(|(f, _)| *f)
-        .collect();
-    let curve = deposition_curve(&sample, opts);
+        .flatten()
+        .for_each(|&v| used[v as usize] = true);
+    used
+}
+
+/// θ*: the first sample of the largest deposition rate (values within
+/// 10⁻⁶ of each other count as tied).
+fn fastest(curve: &[CurvePoint]) -> CurvePoint {
     let mut star = curve[0];
-    for c in &curve {
+    for c in curve {
         if c.v_e > star.v_e * (1.0 + 1e-6) {
             star = *c;
         }
     }
-    let theta = star.theta_deg.to_radians();
-    let q = drive_normal(theta);
-    let g = [theta.cos(), -theta.sin(), 0.0]; // along the planes, horizontal
-    let rates = vertex_rates(&frames, opts, theta);
-    // Per vertex: w_eff(θ*), plane offset per mm of side step, convex
-    // curvature along the feed direction.
-    let per_vertex: Vec<[f64; 3]> = frames
-        .iter()
-        .zip(&rates)
-        .map(|(fr, r)| {
-            let qn = dot(q, fr.normal);
-            let qt = (1.0 - qn * qn).max(0.0).sqrt();
-            [r[0], qt, fr.convex_curvature(feed_dir(fr, q))]
-        })
-        .collect();
-    let at_point = |p: &SectionPoint, k: usize| {
+    star
+}
+
+/// The drive planes of one angle θ over a surface: their normal `q`, the
+/// horizontal direction `g` along them, and what each vertex says about
+/// the side step and the forward step.
+struct Sweep<'a> {
+    mesh: &'a Mesh,
+    frames: &'a [LocalFrame],
+    opts: &'a IsoplanarOptions,
+    q: DVec3,
+    g: DVec3,
+    /// Per vertex: w_eff(θ), plane offset per mm of side step, convex
+    /// curvature along the feed direction.
+    per_vertex: Vec<[f64; 3]>,
+    /// The range of `q · x` over the used vertices.
+    c_range: (f64, f64),
+    /// The effective width on a flat layer.
+    w_flat: f64,
+    /// The smallest plane offset taken (a twentieth of `w_flat`).
+    min_offset: f64,
+    /// The first plane's offset from the extreme, twice over.
+    first: f64,
+}
+
+impl<'a> Sweep<'a> {
+    fn new(
+        mesh: &'a Mesh,
+        frames: &'a [LocalFrame],
+        used: &[bool],
+        opts: &'a IsoplanarOptions,
+        theta: f64,
+    ) -> Self {
+        let q = drive_normal(theta);
+        let g = DVec3::new(theta.cos(), -theta.sin(), 0.0);
+        let rates = vertex_rates(frames, opts, theta);
+        let per_vertex: Vec<[f64; 3]> = frames
+            .iter()
+            .zip(&rates)
+            .map(|(fr, r)| {
+                let qn = q.dot(fr.normal);
+                let qt = (1.0 - qn * qn).max(0.0).sqrt();
+                [r[0], qt, fr.convex_curvature(feed_dir(fr, q))]
+            })
+            .collect();
+        let cs: Vec<f64> = mesh
+            .vertices
+            .iter()
+            .zip(used)
+            .filter(|(_, &u)| u)
+            .map(|(v, _)| q.dot(DVec3::from(v.map(f64::from))))
+            .collect();
+        let c_min = cs.iter().copied().fold(f64::INFINITY, f64::min);
+        let c_max = cs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let w_flat = effective_width(opts.nozzle, opts.height, 0.0);
+        let min_offset = 0.05 * w_flat;
+        let first = per_vertex
+            .iter()
+            .zip(used)
+            .filter(|(_, &u)| u)
+            .map(|(v, _)| v[0] * v[1])
+            .fold(f64::INFINITY, f64::min)
+            .max(min_offset);
+        Sweep {
+            mesh,
+            frames,
+            opts,
+            q,
+            g,
+            per_vertex,
+            c_range: (c_min, c_max),
+            w_flat,
+            min_offset,
+            first,
+        }
+    }
+
+    /// Per-vertex value `k` interpolated at a section point.
+    fn at_point(&self, p: &SectionPoint, k: usize) -> f64 {
         let (a, b) = (
-            per_vertex[p.edge.0 as usize][k],
-            per_vertex[p.edge.1 as usize][k],
+            self.per_vertex[p.edge.0 as usize][k],
+            self.per_vertex[p.edge.1 as usize][k],
         );
         a + p.t * (b - a)
-    };
-    let normal_at = |p: &SectionPoint| {
-        normalised(lerp3(
-            frames[p.edge.0 as usize].normal,
-            frames[p.edge.1 as usize].normal,
+    }
+
+    /// The vertex normals interpolated at a section point.
+    fn normal_at(&self, p: &SectionPoint) -> DVec3 {
+        unit(lerp(
+            self.frames[p.edge.0 as usize].normal,
+            self.frames[p.edge.1 as usize].normal,
             p.t,
         ))
-    };
-    let cs: Vec<f64> = mesh
-        .vertices
-        .iter()
-        .zip(&used)
-        .filter(|(_, &u)| u)
-        .map(|(v, _)| dot(q, v.map(|x| x as f64)))
-        .collect();
-    let c_min = cs.iter().copied().fold(f64::INFINITY, f64::min);
-    let c_max = cs.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let w_flat = effective_width(opts.nozzle, opts.height, 0.0);
-    let min_offset = 0.05 * w_flat;
-    let first = per_vertex
-        .iter()
-        .zip(&used)
-        .filter(|(_, &u)| u)
-        .map(|(v, _)| v[0] * v[1])
-        .fold(f64::INFINITY, f64::min)
-        .max(min_offset);
-    let mut c = c_min + 0.5 * first;
-    let mut curves: Vec<Vec<Piece>> = Vec::new();
-    let mut side_steps = Vec::new();
-    let mut last_offset = first;
-    while c < c_max {
-        if curves.len() > 1_000_000 {
-            return Err(GenerateError::Parameter(
-                "more than a million drive planes: use a wider nozzle".into(),
-            ));
+    }
+
+    /// Every drive plane's curve from the extreme of the surface, the
+    /// first half a side step in, each next one the smallest effective
+    /// width along the current curve further (Eq. 14); and the side steps
+    /// after the first.
+    fn curves(&self) -> Result<(Vec<Vec<Piece>>, Vec<f64>), GenerateError> {
+        let (c_min, c_max) = self.c_range;
+        let mut c = c_min + 0.5 * self.first;
+        let mut curves: Vec<Vec<Piece>> = Vec::new();
+        let mut side_steps = Vec::new();
+        let mut last_offset = self.first;
+        while c < c_max {
+            if curves.len() > 1_000_000 {
+                return Err(GenerateError::Parameter(
+                    "more than a million drive planes: use a wider nozzle".into(),
+                ));
+            }
+            let Some((pieces, width, offset)) = self.curve(c, curves.len() % 2 == 1) else {
+                c += last_offset;
+                continue;
+            };
+            curves.push(pieces);
+            let step = offset.max(self.min_offset);
+            if curves.len() > 1 {
+                side_steps.push(width);
+            }
+            last_offset = step;
+            c += step;
         }
-        let mut polys = section(&mesh, q, c);
+        Ok((curves, side_steps))
+    }
+
+    /// The plane `q · x = c`'s section, its pieces ordered along `g` (or
+    /// against it, `reverse`) and sampled; with the smallest effective
+    /// width along it and that width as a plane offset. `None` where the
+    /// plane misses the surface.
+    fn curve(&self, c: f64, reverse: bool) -> Option<(Vec<Piece>, f64, f64)> {
+        let mut polys = section(self.mesh, self.q, c);
         if polys.is_empty() {
-            c += last_offset;
-            continue;
+            return None;
         }
         // Eq. 14: the smallest effective width along this curve, as a plane offset.
-        let mut ws = f64::INFINITY;
-        let mut dc = f64::INFINITY;
+        let mut width = f64::INFINITY;
+        let mut offset = f64::INFINITY;
         for p in polys.iter().flat_map(|p| &p.points) {
-            let w = at_point(p, 0);
-            ws = ws.min(w);
-            dc = dc.min(w * at_point(p, 1));
+            let w = self.at_point(p, 0);
+            width = width.min(w);
+            offset = offset.min(w * self.at_point(p, 1));
         }
         // Orient each piece along g, order pieces along g; zig-zag.
+        let g = self.g;
         for p in &mut polys {
             let (a, b) = (p.points[0].pos, p.points[p.points.len() - 1].pos);
-            if !p.closed && dot(g, a) > dot(g, b) {
+            if !p.closed && g.dot(a) > g.dot(b) {
                 p.points.reverse();
             }
         }
-        polys.sort_by(|a, b| dot(g, a.points[0].pos).total_cmp(&dot(g, b.points[0].pos)));
-        let reverse = curves.len() % 2 == 1;
+        polys.sort_by(|a, b| g.dot(a.points[0].pos).total_cmp(&g.dot(b.points[0].pos)));
         if reverse {
             polys.reverse();
             for p in &mut polys {
                 p.points.reverse();
             }
         }
-        let mut pieces = Vec::new();
-        for p in &polys {
-            let mut pts: Vec<SectionPoint> = p.points.clone();
-            if p.closed {
-                pts.push(pts[0]);
-            }
-            pieces.push(sample_piece(&pts, opts, &|sp| at_point(sp, 2), &normal_at));
-        }
-        curves.push(pieces);
-        let step = dc.max(min_offset);
-        if curves.len() > 1 {
-            side_steps.push(ws);
-        }
-        last_offset = step;
-        c += step;
+        let pieces = polys
+            .iter()
+            .map(|p| {
+                let mut pts: Vec<SectionPoint> = p.points.clone();
+                if p.closed {
+                    pts.push(pts[0]);
+                }
+                sample_piece(&pts, self.opts, &|sp| self.at_point(sp, 2), &|sp| {
+                    self.normal_at(sp)
+                })
+            })
+            .collect();
+        Some((pieces, width, offset))
     }
-    // Join everything into one layer.
+}
+
+/// Every curve's samples in order as one layer's waypoints, with the
+/// printing length (along the curves, and joins up to `join_limit`) and
+/// the travel (longer joins).
+fn join_curves(curves: &[Vec<Piece>], join_limit: f64) -> (Vec<Waypoint>, f64, f64) {
     let mut waypoints = Vec::new();
     let (mut print, mut travel) = (0.0, 0.0);
-    let join_limit = 2.0 * side_steps.iter().copied().fold(w_flat, f64::max);
-    let mut prev: Option<[f64; 3]> = None;
+    let mut prev: Option<DVec3> = None;
     for (pos, nrm) in curves.iter().flatten() {
         for (k, (p, n)) in pos.iter().zip(nrm).enumerate() {
             if let Some(a) = prev {
-                let d = dist(a, *p);
+                let d = a.distance(*p);
                 if k == 0 && d > join_limit {
                     travel += d;
                 } else {
@@ -393,30 +510,12 @@ pub fn isoplanar(mesh: &Mesh, opts: &IsoplanarOptions) -> Result<IsoplanarResult
             }
             prev = Some(*p);
             waypoints.push(Waypoint {
-                pos: p.map(|x| x as f32),
-                dir: n.map(|x| x as f32),
+                pos: p.as_vec3().to_array(),
+                dir: n.as_vec3().to_array(),
             });
         }
     }
-    if waypoints.is_empty() {
-        return Err(GenerateError::Parameter(
-            "no drive plane crosses the surface: is it flat along the drive direction?".into(),
-        ));
-    }
-    Ok(IsoplanarResult {
-        toolpath: Toolpath {
-            layers: vec![Layer {
-                name: "0".into(),
-                waypoints,
-                surface: Some(mesh),
-            }],
-        },
-        curve,
-        theta_star_deg: star.theta_deg,
-        side_steps,
-        print_length: print,
-        travel_length: travel,
-    })
+    (waypoints, print, travel)
 }
 
 /// Sample one section piece (`pts`, in order) by the chord-error forward
@@ -425,16 +524,16 @@ fn sample_piece(
     pts: &[SectionPoint],
     opts: &IsoplanarOptions,
     kappa: &dyn Fn(&SectionPoint) -> f64,
-    normal: &dyn Fn(&SectionPoint) -> [f64; 3],
+    normal: &dyn Fn(&SectionPoint) -> DVec3,
 ) -> Piece {
     // Arc length at each point.
     let mut s = vec![0.0];
     for w in pts.windows(2) {
-        s.push(s[s.len() - 1] + dist(w[0].pos, w[1].pos));
+        s.push(s[s.len() - 1] + w[0].pos.distance(w[1].pos));
     }
     let total = s[s.len() - 1];
     // Segment index, position and normal at arc length x.
-    let eval = |x: f64| -> (usize, [f64; 3], [f64; 3]) {
+    let eval = |x: f64| -> (usize, DVec3, DVec3) {
         let j = s
             .partition_point(|&v| v <= x)
             .clamp(1, pts.len().max(2) - 1);
@@ -450,8 +549,8 @@ fn sample_piece(
         };
         (
             j,
-            lerp3(a.pos, b.pos, t),
-            normalised(lerp3(normal(a), normal(b), t)),
+            lerp(a.pos, b.pos, t),
+            unit(lerp(normal(a), normal(b), t)),
         )
     };
     let d = opts.chord_error;
@@ -512,14 +611,14 @@ mod tests {
             .map(|i| {
                 let a = 0.5 * PI * i as f64 / n as f64;
                 SectionPoint {
-                    pos: [r * a.sin(), 0.0, r * a.cos()],
+                    pos: DVec3::new(r * a.sin(), 0.0, r * a.cos()),
                     edge: (0, 1),
                     t: 0.0,
                 }
             })
             .collect();
         let opts = IsoplanarOptions::default();
-        let (pos, nrm) = sample_piece(&pts, &opts, &|_| 1.0 / r, &|p| p.pos.map(|x| x / r));
+        let (pos, nrm) = sample_piece(&pts, &opts, &|_| 1.0 / r, &|p| p.pos / r);
         let d = opts.chord_error;
         let lf = (8.0 * d * r - 4.0 * d * d).sqrt();
         // 15.7 mm of arc in steps of ~2 mm
@@ -530,16 +629,16 @@ mod tests {
             pos.len()
         );
         for w in pos.windows(2).take(pos.len() - 2) {
-            let chord = dist(w[0], w[1]);
+            let chord = w[0].distance(w[1]);
             assert!((chord - lf).abs() < 1e-2, "{chord} vs {lf}");
-            let mid = lerp3(w[0], w[1], 0.5);
-            let sagitta = r - dot(mid, mid).sqrt();
+            let mid = lerp(w[0], w[1], 0.5);
+            let sagitta = r - mid.length();
             assert!(sagitta <= d + 1e-6 && sagitta > 0.9 * d, "{sagitta}");
         }
         assert!(nrm
             .iter()
             .zip(&pos)
-            .all(|(n, p)| (dot(*n, *p) / r - 1.0).abs() < 1e-6));
+            .all(|(n, p)| (n.dot(*p) / r - 1.0).abs() < 1e-6));
     }
 
     #[test]

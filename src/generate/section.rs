@@ -9,6 +9,7 @@
 //! falls (in the triangle's winding), so neighbours chain head to tail.
 
 use crate::geometry::Mesh;
+use glam::DVec3;
 use std::collections::HashMap;
 
 /// One point of a section: on the mesh edge `edge` at `pos`, a fraction `t`
@@ -16,7 +17,7 @@ use std::collections::HashMap;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SectionPoint {
     /// Position (mm).
-    pub pos: [f64; 3],
+    pub pos: DVec3,
     /// The cut edge's vertices.
     pub edge: (u32, u32),
     /// Fraction along the edge.
@@ -34,19 +35,16 @@ pub struct Polyline {
 
 /// Cut `mesh` (manifold, consistently wound) with the plane
 /// `{x : normal · x = offset}`.
-pub fn section(mesh: &Mesh, normal: [f64; 3], offset: f64) -> Vec<Polyline> {
-    let s: Vec<f64> = mesh
-        .vertices
-        .iter()
-        .map(|v| {
-            normal[0] * v[0] as f64 + normal[1] * v[1] as f64 + normal[2] * v[2] as f64 - offset
-        })
+pub fn section(mesh: &Mesh, normal: DVec3, offset: f64) -> Vec<Polyline> {
+    let vertex = |i: u32| DVec3::from(mesh.vertices[i as usize].map(f64::from));
+    let s: Vec<f64> = (0..mesh.vertices.len() as u32)
+        .map(|i| normal.dot(vertex(i)) - offset)
         .collect();
     let point = |a: u32, b: u32| -> SectionPoint {
         let (sa, sb) = (s[a as usize], s[b as usize]);
         let t = sa / (sa - sb);
-        let (pa, pb) = (mesh.vertices[a as usize], mesh.vertices[b as usize]);
-        let pos = [0, 1, 2].map(|k| pa[k] as f64 + t * (pb[k] as f64 - pa[k] as f64));
+        let (pa, pb) = (vertex(a), vertex(b));
+        let pos = pa + (pb - pa) * t;
         // Key edges by their smaller vertex so both triangles agree.
         if a < b {
             SectionPoint {
@@ -130,14 +128,14 @@ mod tests {
     #[test]
     fn a_box_cut_through_the_middle_is_one_closed_square() {
         let b = box_mesh([0.0; 3], [2.0, 2.0, 2.0]);
-        let p = section(&b, [0.0, 0.0, 1.0], 1.0);
+        let p = section(&b, DVec3::Z, 1.0);
         assert_eq!(p.len(), 1);
         assert!(p[0].closed);
         let perim: f64 = (0..p[0].points.len())
             .map(|i| {
                 let a = p[0].points[i].pos;
                 let b = p[0].points[(i + 1) % p[0].points.len()].pos;
-                ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+                a.distance(b)
             })
             .sum();
         assert!((perim - 8.0).abs() < 1e-9, "{perim}");
@@ -145,16 +143,16 @@ mod tests {
         // Through the bottom face's vertices: they count as above, so the
         // whole box is above and there is no section; through the top
         // face's, the side edges are cut at their top ends.
-        assert!(section(&b, [0.0, 0.0, 1.0], 0.0).is_empty());
-        assert_eq!(section(&b, [0.0, 0.0, 1.0], 2.0)[0].points.len(), 8);
-        assert!(section(&b, [0.0, 0.0, 1.0], 2.5).is_empty());
+        assert!(section(&b, DVec3::Z, 0.0).is_empty());
+        assert_eq!(section(&b, DVec3::Z, 2.0)[0].points.len(), 8);
+        assert!(section(&b, DVec3::Z, 2.5).is_empty());
     }
 
     #[test]
     fn an_open_surface_gives_open_polylines() {
         let mut b = box_mesh([0.0; 3], [2.0, 2.0, 2.0]);
         b.triangles.truncate(2); // the bottom face only
-        let p = section(&b, [1.0, 0.0, 0.0], 1.0);
+        let p = section(&b, DVec3::X, 1.0);
         assert_eq!(p.len(), 1);
         assert!(!p[0].closed);
         assert_eq!(p[0].points.len(), 3);

@@ -14,11 +14,13 @@
 //! orders, nearest where the previous layer ended. Each layer's surface is the union of one strip of
 //! width S per run (the printed region), facing `d`.
 
-use super::fill::{lengths, order_from, Fill, Lengths, Run};
+use super::curvature::tangent_axes;
+use super::fill::{lengths, order_from, Fill, Lengths, Pass, Run};
 use super::section::section;
 use super::{validate, GenerateError};
 use crate::geometry::Mesh;
 use crate::toolpath::{Layer, Toolpath, Waypoint};
+use glam::DVec3;
 use serde::Serialize;
 
 /// Slicing settings.
@@ -76,38 +78,92 @@ impl SliceResult {
     }
 }
 
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn normalised(a: [f64; 3]) -> [f64; 3] {
-    let l = dot(a, a).sqrt();
-    a.map(|x| x / l)
-}
-
-/// The in-plane axes `(u, v)` for direction `d` (unit), `u × v = d`.
+/// The in-plane axes `(u, v)` of the slices along the unit direction `d`,
+/// `u × v = d`: grid rows run along `u`.
 pub fn frame(d: [f64; 3]) -> ([f64; 3], [f64; 3]) {
-    let e = if d[0].abs() > 0.9 {
-        [0.0, 1.0, 0.0]
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let ed = dot(e, d);
-    let u = normalised([0, 1, 2].map(|k| e[k] - ed * d[k]));
-    (u, cross(d, u))
+    let (u, v) = tangent_axes(DVec3::from(d));
+    (u.to_array(), v.to_array())
 }
 
 /// Slice `mesh` (closed, outward-facing) and fill every slice.
 pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateError> {
-    let len = dot(opts.dir, opts.dir).sqrt();
+    let d = unit_direction(opts)?;
+    let mesh = validate::solid(mesh)?;
+    let (u, v) = tangent_axes(d);
+    let ts: Vec<f64> = mesh
+        .vertices
+        .iter()
+        .map(|p| d.dot(DVec3::from(p.map(f64::from))))
+        .collect();
+    let t_min = ts.iter().copied().fold(f64::INFINITY, f64::min);
+    let t_max = ts.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let n_layers = ((t_max - t_min) / opts.layer).ceil().max(1.0) as usize;
+    if n_layers > 100_000 {
+        return Err(GenerateError::Parameter(format!(
+            "{n_layers} layers: use a thicker layer (the part is {:.1} mm along the direction)",
+            t_max - t_min
+        )));
+    }
+    let mut result = SliceResult {
+        toolpath: Toolpath::default(),
+        layers: Vec::new(),
+        dir: d.to_array(),
+    };
+    let mut total_points = 0usize;
+    let mut prev_end: Option<DVec3> = None;
+    for k in 0..n_layers {
+        let t = t_min + (k as f64 + 0.5) * opts.layer;
+        if t >= t_max {
+            break;
+        }
+        let plane = Plane { u, v, d, t };
+        let Some(grid) = Grid::of(&mesh, &plane, opts.spacing)? else {
+            continue;
+        };
+        let from = prev_end.map(|p| grid.cell(plane.coords(p)));
+        let ord = order_from(&grid.runs, opts.fill, from);
+        let len = lengths(&grid.runs, &ord, opts.spacing);
+        let waypoints = grid.waypoints(&plane, &ord);
+        total_points += waypoints.len();
+        let first = DVec3::from(waypoints[0].pos.map(f64::from));
+        let entry_length = prev_end.map_or(0.0, |p| p.distance(first));
+        prev_end = Some(DVec3::from(
+            waypoints[waypoints.len() - 1].pos.map(f64::from),
+        ));
+        if total_points > 50_000_000 {
+            return Err(GenerateError::Parameter(
+                "more than 50 million waypoints: use a coarser spacing or thicker layers".into(),
+            ));
+        }
+        let name = result.toolpath.layers.len().to_string();
+        result.layers.push(LayerSummary {
+            name: name.clone(),
+            offset: t,
+            waypoints: waypoints.len(),
+            runs: grid.runs.len(),
+            print_length: len.print,
+            travel_length: len.travel,
+            entry_length,
+        });
+        result.toolpath.layers.push(Layer {
+            name,
+            waypoints,
+            surface: Some(grid.strips(&plane)),
+        });
+    }
+    if result.toolpath.layers.is_empty() {
+        return Err(GenerateError::Parameter(format!(
+            "no slice holds a grid point: the part is {:.3} mm thick along the direction; use thinner layers or a finer spacing",
+            t_max - t_min
+        )));
+    }
+    Ok(result)
+}
+
+/// The unit slicing direction, once the settings are checked.
+fn unit_direction(opts: &SliceOptions) -> Result<DVec3, GenerateError> {
+    let dir = DVec3::from(opts.dir);
+    let len = dir.length();
     if !(len.is_finite() && len > 1e-9) {
         return Err(GenerateError::Parameter(
             "the slicing direction must be a non-zero vector X,Y,Z".into(),
@@ -123,49 +179,52 @@ pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateEr
             "the grid spacing must be a positive number (mm)".into(),
         ));
     }
-    let mesh = validate::solid(mesh)?;
-    let d = opts.dir.map(|x| x / len);
-    let (u, v) = frame(d);
-    let ts: Vec<f64> = mesh
-        .vertices
-        .iter()
-        .map(|p| dot(d, p.map(|x| x as f64)))
-        .collect();
-    let t_min = ts.iter().copied().fold(f64::INFINITY, f64::min);
-    let t_max = ts.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let n_layers = ((t_max - t_min) / opts.layer).ceil().max(1.0) as usize;
-    if n_layers > 100_000 {
-        return Err(GenerateError::Parameter(format!(
-            "{n_layers} layers: use a thicker layer (the part is {:.1} mm along the direction)",
-            t_max - t_min
-        )));
+    Ok(dir / len)
+}
+
+/// A slicing plane: `d · x = t`, with in-plane axes `u`, `v` (`u × v = d`).
+struct Plane {
+    u: DVec3,
+    v: DVec3,
+    d: DVec3,
+    t: f64,
+}
+
+impl Plane {
+    /// The in-plane coordinates of `p`.
+    fn coords(&self, p: DVec3) -> [f64; 2] {
+        [p.dot(self.u), p.dot(self.v)]
     }
-    let s = opts.spacing;
-    let dir32 = d.map(|x| x as f32);
-    let mut result = SliceResult {
-        toolpath: Toolpath::default(),
-        layers: Vec::new(),
-        dir: d,
-    };
-    let mut total_points = 0usize;
-    let mut prev_end: Option<[f64; 3]> = None;
-    for k in 0..n_layers {
-        let t = t_min + (k as f64 + 0.5) * opts.layer;
-        if t >= t_max {
-            break;
-        }
+
+    /// The point of the plane at in-plane coordinates `(a, b)`.
+    fn point(&self, a: f64, b: f64) -> [f32; 3] {
+        (self.u * a + self.v * b + self.d * self.t)
+            .as_vec3()
+            .to_array()
+    }
+}
+
+/// One slice's grid points inside the part, as runs along its rows.
+struct Grid {
+    /// The grid point of row 0, column 0 (in-plane coordinates): half a
+    /// step inside the slice's bounding box.
+    base: [f64; 2],
+    /// Spacing (mm).
+    spacing: f64,
+    runs: Vec<Run>,
+}
+
+impl Grid {
+    /// The grid of the slice of `mesh` in `plane`; `None` when the plane
+    /// misses the part or no grid point lies inside.
+    fn of(mesh: &Mesh, plane: &Plane, s: f64) -> Result<Option<Grid>, GenerateError> {
         // Section loops in plane coordinates.
-        let loops: Vec<Vec<[f64; 2]>> = section(&mesh, d, t)
+        let loops: Vec<Vec<[f64; 2]>> = section(mesh, plane.d, plane.t)
             .into_iter()
-            .map(|p| {
-                p.points
-                    .iter()
-                    .map(|q| [dot(q.pos, u), dot(q.pos, v)])
-                    .collect()
-            })
+            .map(|p| p.points.iter().map(|q| plane.coords(q.pos)).collect())
             .collect();
         let Some((lo, hi)) = bounds(&loops) else {
-            continue;
+            return Ok(None);
         };
         let cols = ((hi[0] - lo[0]) / s).floor() as i64 + 1;
         let n_rows = ((hi[1] - lo[1]) / s).floor() as i64 + 1;
@@ -188,80 +247,64 @@ pub fn slice(mesh: &Mesh, opts: &SliceOptions) -> Result<SliceResult, GenerateEr
                 }
             }
         }
-        if runs.is_empty() {
-            continue;
-        }
-        let from =
-            prev_end.map(|p: [f64; 3]| [(dot(p, u) - base[0]) / s, (dot(p, v) - base[1]) / s]);
-        let ord = order_from(&runs, opts.fill, from);
-        let len = lengths(&runs, &ord, s);
-        let at = |i: i64, row: i64| -> [f32; 3] {
-            let (a, b) = (base[0] + i as f64 * s, base[1] + row as f64 * s);
-            [0, 1, 2].map(|c| (a * u[c] + b * v[c] + t * d[c]) as f32)
-        };
+        Ok((!runs.is_empty()).then_some(Grid {
+            base,
+            spacing: s,
+            runs,
+        }))
+    }
+
+    /// In-plane coordinates `p` in grid steps from the base.
+    fn cell(&self, p: [f64; 2]) -> [f64; 2] {
+        [
+            (p[0] - self.base[0]) / self.spacing,
+            (p[1] - self.base[1]) / self.spacing,
+        ]
+    }
+
+    /// The point of column `i`, row `row` (fractional for cell corners).
+    fn point(&self, plane: &Plane, i: f64, row: f64) -> [f32; 3] {
+        plane.point(
+            self.base[0] + i * self.spacing,
+            self.base[1] + row * self.spacing,
+        )
+    }
+
+    /// The grid points in the order of `passes`, nozzle along the plane's normal.
+    fn waypoints(&self, plane: &Plane, passes: &[Pass]) -> Vec<Waypoint> {
+        let dir = plane.d.as_vec3().to_array();
         let mut waypoints = Vec::new();
-        for p in &ord {
-            let r = runs[p.run];
+        for p in passes {
+            let r = self.runs[p.run];
             let cols: Box<dyn Iterator<Item = i64>> = if p.forward {
                 Box::new(r.i0..=r.i1)
             } else {
                 Box::new((r.i0..=r.i1).rev())
             };
             waypoints.extend(cols.map(|i| Waypoint {
-                pos: at(i, r.row),
-                dir: dir32,
+                pos: self.point(plane, i as f64, r.row as f64),
+                dir,
             }));
         }
-        total_points += waypoints.len();
-        let first = waypoints[0].pos.map(|x| x as f64);
-        let entry_length = prev_end.map_or(0.0, |p| {
-            ((p[0] - first[0]).powi(2) + (p[1] - first[1]).powi(2) + (p[2] - first[2]).powi(2))
-                .sqrt()
-        });
-        prev_end = Some(waypoints[waypoints.len() - 1].pos.map(|x| x as f64));
-        if total_points > 50_000_000 {
-            return Err(GenerateError::Parameter(
-                "more than 50 million waypoints: use a coarser spacing or thicker layers".into(),
-            ));
-        }
-        // The printed region: one strip of width S per run.
+        waypoints
+    }
+
+    /// The printed region: one strip of width S per run, facing the
+    /// plane's normal.
+    fn strips(&self, plane: &Plane) -> Mesh {
         let mut surface = Mesh::default();
-        for r in &runs {
+        for r in &self.runs {
             let (a0, a1) = (r.i0 as f64 - 0.5, r.i1 as f64 + 0.5);
             let (b0, b1) = (r.row as f64 - 0.5, r.row as f64 + 0.5);
             let n = surface.vertices.len() as u32;
             for (a, b) in [(a0, b0), (a1, b0), (a1, b1), (a0, b1)] {
-                let (a, b) = (base[0] + a * s, base[1] + b * s);
-                surface
-                    .vertices
-                    .push([0, 1, 2].map(|c| (a * u[c] + b * v[c] + t * d[c]) as f32));
+                surface.vertices.push(self.point(plane, a, b));
             }
             surface.triangles.push([n, n + 1, n + 2]);
             surface.triangles.push([n, n + 2, n + 3]);
         }
-        let name = result.toolpath.layers.len().to_string();
-        result.layers.push(LayerSummary {
-            name: name.clone(),
-            offset: t,
-            waypoints: waypoints.len(),
-            runs: runs.len(),
-            print_length: len.print,
-            travel_length: len.travel,
-            entry_length,
-        });
-        result.toolpath.layers.push(Layer {
-            name,
-            waypoints,
-            surface: Some(surface),
-        });
+        surface
     }
-    if result.toolpath.layers.is_empty() {
-        return Err(GenerateError::Parameter(format!(
-            "no slice holds a grid point: the part is {:.3} mm thick along the direction; use thinner layers or a finer spacing",
-            t_max - t_min
-        )));
-    }
-    Ok(result)
 }
 
 /// Bounding box of the loops' points.
@@ -296,18 +339,15 @@ pub fn row_intervals(loops: &[Vec<[f64; 2]>], y: f64) -> Vec<(f64, f64)> {
 mod tests {
     use super::*;
     use crate::default_job::box_mesh;
+    use glam::Vec3;
 
     #[test]
     fn frame_is_right_handed_and_orthonormal() {
-        for d in [
-            [0.0, 0.0, 1.0],
-            [1.0, 0.0, 0.0],
-            normalised([0.3, -0.5, 0.8]),
-        ] {
-            let (u, v) = frame(d);
-            let w = cross(u, v);
-            assert!((0..3).all(|k| (w[k] - d[k]).abs() < 1e-12), "{d:?}");
-            assert!(dot(u, d).abs() < 1e-12 && (dot(u, u) - 1.0).abs() < 1e-12);
+        for d in [DVec3::Z, DVec3::X, DVec3::new(0.3, -0.5, 0.8).normalize()] {
+            let (u, v) = frame(d.to_array());
+            let (u, v) = (DVec3::from(u), DVec3::from(v));
+            assert!((u.cross(v) - d).abs().max_element() < 1e-12, "{d:?}");
+            assert!(u.dot(d).abs() < 1e-12 && (u.dot(u) - 1.0).abs() < 1e-12);
         }
     }
 
@@ -343,12 +383,8 @@ mod tests {
                 .iter()
                 .enumerate()
                 .map(|(i, _)| {
-                    let [a, b, c] = l.surface.as_ref().unwrap().corners(i);
-                    crate::geometry::length(crate::geometry::cross(
-                        crate::geometry::sub(b, a),
-                        crate::geometry::sub(c, a),
-                    )) as f64
-                        / 2.0
+                    let [a, b, c] = l.surface.as_ref().unwrap().corners(i).map(Vec3::from);
+                    (b - a).cross(c - a).length() as f64 / 2.0
                 })
                 .sum();
             assert!((area - 6.0).abs() < 1e-4, "{area}");

@@ -3,12 +3,12 @@
 //!
 //! The standard formatter rounds the exact decimal value of `x`; when its
 //! fast algorithm (Grisu) cannot decide, it falls back to big-number
-//! arithmetic (Dragon), which for the outputs' many millions of numbers
-//! was about 4 % of a whole `plan simple_curve`. Here `|x| · 10^d` is
-//! rounded in `f64` instead. That product is within a few units in the
-//! last place of the exact one, so both round to the same integer unless
-//! the product lies that close to a half: then (and for huge or
-//! non-finite values) the standard formatter is asked. The text is
+//! arithmetic (Dragon), which is slow for the many millions of numbers
+//! the outputs hold. Here `|x| · 10^d` is rounded in `f64` instead. That
+//! product is within a few units in the last place of the exact one, so
+//! both round to the same integer unless the product lies that close to
+//! a half: then (and for huge or non-finite values) the standard
+//! formatter is asked. The text is
 //! byte-for-byte the standard formatter's (`fixed_matches_the_standard_formatter`).
 
 use std::fmt::Write;

@@ -93,7 +93,7 @@ impl Writer<'_> {
     /// the nozzle offset), or the part-frame tip when `tip` (tool-centre-point
     /// control on); then the rotary axes. Every word goes straight into
     /// `out`: a program has hundreds of thousands of lines, and a string per
-    /// word was most of the time it took to write.
+    /// word would cost more than formatting the numbers.
     fn push_axes(&mut self, a: &Axes, offset: [f64; 2], tip: bool) {
         let xyz = if tip {
             self.m.tip(a)
@@ -334,7 +334,7 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
 }
 
 pub use super::gcode_read::{
-    axes_of, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove,
+    axes_of, load_program, parse_g1, read_program, rotary_motion, GcodeError, GcodeMove,
 };
 
 #[cfg(test)]

@@ -13,7 +13,9 @@
 //! finite number, a move before every axis has a position (home with
 //! `G28 X… Y… Z… B… C…` or give every axis on the first move).
 
+use super::InputError;
 use crate::kinematics::{linear_axes, tip_position, Axes, Machine};
+use std::path::Path;
 
 /// A line the reader cannot take.
 #[derive(Debug, thiserror::Error, PartialEq)]
@@ -108,8 +110,54 @@ fn harmless(code: &str) -> bool {
     ) || code.starts_with('M')
 }
 
-/// The controller state while reading.
-struct State {
+/// The motion lines of the program in the file at `path` ([`read_program`]),
+/// every problem an [`InputError`] naming the file: unreadable, a line the
+/// reader cannot take, or no motion at all.
+pub fn load_program(path: &Path, m: &Machine) -> Result<Vec<GcodeMove>, InputError> {
+    let text = std::fs::read_to_string(path).map_err(|e| {
+        InputError::file(
+            path,
+            format!("cannot read the program ({e}): check the path"),
+        )
+    })?;
+    let moves = read_program(&text, m).map_err(|e| InputError::at(path, e.line, e.msg))?;
+    if moves.is_empty() {
+        return Err(InputError::file(
+            path,
+            "no G0/G1 motion found: is this a G-code program?",
+        ));
+    }
+    Ok(moves)
+}
+
+/// Every motion line of `text` for machine `m` (dialect letters, signs and
+/// kinematics from `m`; tool-centre-point control and modes as the program
+/// switches them). Lines that neither move an axis nor the extruder are
+/// left out.
+pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeError> {
+    let mut controller = Controller::new(m);
+    let mut out = Vec::new();
+    for (n, raw) in text.lines().enumerate() {
+        let line = n + 1;
+        if let Some(mv) = controller
+            .read_line(line, raw)
+            .map_err(|msg| GcodeError { line, msg })?
+        {
+            out.push(mv);
+        }
+    }
+    Ok(out)
+}
+
+/// A line's words by slot: X Y Z tilt C E F.
+type Slots = [Option<f64>; 7];
+
+/// The controller's state while it reads a program.
+struct Controller<'a> {
+    m: &'a Machine,
+    /// The tilt axis' and C's letters in this machine's dialect.
+    tilt_letter: char,
+    c_letter: char,
     /// Machine axes; `None` until known.
     axes: [Option<f64>; 5],
     e: f64,
@@ -120,37 +168,70 @@ struct State {
     tool: u32,
 }
 
-/// Every motion line of `text` for machine `m` (dialect letters, signs and
-/// kinematics from `m`; tool-centre-point control and modes as the program
-/// switches them). Lines that neither move an axis nor the extruder are
-/// left out.
-pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeError> {
-    let post = &m.post;
-    let (tl, cl) = (post.tilt_letter(m.rotary), post.c_letter());
-    let mut st = State {
-        axes: [None; 5],
-        e: 0.0,
-        f: 1500.0,
-        relative_e: false,
-        inverse_time: false,
-        tcp: false,
-        tool: 0,
-    };
-    let mut out = Vec::new();
-    for (n, raw) in text.lines().enumerate() {
-        let line = n + 1;
-        let err = |msg: String| GcodeError { line, msg };
-        let Some((code, rest)) = tokens(raw).map_err(err)? else {
-            continue;
+impl<'a> Controller<'a> {
+    fn new(m: &'a Machine) -> Self {
+        Controller {
+            m,
+            tilt_letter: m.post.tilt_letter(m.rotary),
+            c_letter: m.post.c_letter(),
+            axes: [None; 5],
+            e: 0.0,
+            f: 1500.0,
+            relative_e: false,
+            inverse_time: false,
+            tcp: false,
+            tool: 0,
+        }
+    }
+
+    /// Line number `line` (text `raw`): the state it changes, and the
+    /// motion it makes, if any.
+    fn read_line(&mut self, line: usize, raw: &str) -> Result<Option<GcodeMove>, String> {
+        let Some((code, words)) = tokens(raw)? else {
+            return Ok(None);
         };
         if !(followed(&code) || harmless(&code)) {
-            return Err(err(format!(
+            return Err(format!(
                 "unsupported code {code} in `{}`: the simulator follows G0/G1 moves (G90, absolute), G28, G92 E, G93/G94, G43.4/G49, TRAORI/TRAFOOF, M82/M83 and T<n>",
                 raw.trim()
-            )));
+            ));
         }
-        let mut vals: [Option<f64>; 7] = [None; 7]; // X Y Z tilt C E F
-        for &(k, x) in &rest {
+        let vals = self.slots(&words, raw)?;
+        match code.as_str() {
+            "M82" => self.relative_e = false,
+            "M83" => self.relative_e = true,
+            "G93" => self.inverse_time = true,
+            "G94" => self.inverse_time = false,
+            "G43.4" | "TRAORI" => self.tcp = true,
+            "G49" | "TRAFOOF" => self.tcp = false,
+            "G92" => {
+                if vals[..5].iter().any(|v| v.is_some()) {
+                    return Err(
+                        "G92 on a motion axis shifts the coordinates, which the simulator does not follow: use G92 E only".into(),
+                    );
+                }
+                if let Some(x) = vals[5] {
+                    self.e = x;
+                }
+            }
+            "G28" => self.home(&vals),
+            "G0" | "G1" | "G00" | "G01" => return self.motion(line, &code, &vals),
+            // The rest was checked above: tool changes, and codes that do
+            // not move the machine.
+            c => {
+                if let Some(t) = tool_change(c) {
+                    self.tool = t;
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    /// The words of a line (text `raw`) in their slots.
+    fn slots(&self, words: &[(char, f64)], raw: &str) -> Result<Slots, String> {
+        let (tl, cl) = (self.tilt_letter, self.c_letter);
+        let mut vals: Slots = [None; 7];
+        for &(k, x) in words {
             let slot = match k {
                 'X' => 0,
                 'Y' => 1,
@@ -161,107 +242,131 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
                 'F' => 6,
                 'S' | 'P' | 'H' | 'T' | 'D' => continue,
                 c => {
-                    return Err(err(format!(
+                    return Err(format!(
                         "unknown word '{c}' in `{}`: this machine's axes are X Y Z {tl} {cl} (set post.tilt_letter / post.c_letter in the machine file)",
                         raw.trim()
-                    )))
+                    ))
                 }
             };
             vals[slot] = Some(x);
         }
-        let code = code.as_str();
-        match code {
-            "M82" => st.relative_e = false,
-            "M83" => st.relative_e = true,
-            "G93" => st.inverse_time = true,
-            "G94" => st.inverse_time = false,
-            "G43.4" | "TRAORI" => st.tcp = true,
-            "G49" | "TRAFOOF" => st.tcp = false,
-            "G92" => {
-                if vals[..5].iter().any(|v| v.is_some()) {
-                    return Err(err(
-                        "G92 on a motion axis shifts the coordinates, which the simulator does not follow: use G92 E only".into(),
-                    ));
-                }
-                if let Some(x) = vals[5] {
-                    st.e = x;
-                }
-            }
-            "G28" => {
-                // Homing: machine coordinates in every mode.
-                let signs = [1.0, 1.0, 1.0, post.tilt_sign, post.c_sign];
-                for ((axis, v), sign) in st.axes.iter_mut().zip(&vals[..5]).zip(signs) {
-                    if let Some(x) = v {
-                        *axis = Some(x * sign);
-                    }
-                }
-            }
-            "G0" | "G1" | "G00" | "G01" => {
-                if let Some(x) = vals[6] {
-                    if x <= 0.0 {
-                        return Err(err(format!("feed F{x} must be positive")));
-                    }
-                    st.f = x;
-                }
-                let moves_axis = vals[..5].iter().any(|v| v.is_some());
-                let de = match vals[5] {
-                    Some(x) if st.relative_e => x,
-                    Some(x) => x - st.e,
-                    None => 0.0,
-                };
-                let from = known(&st.axes);
-                if from.is_none() && moves_axis {
-                    let missing: Vec<String> = ['X', 'Y', 'Z', tl, cl]
-                        .into_iter()
-                        .zip(st.axes.iter().zip(&vals[..5]))
-                        .filter(|(_, (a, v))| a.is_none() && v.is_none())
-                        .map(|(c, _)| c.to_string())
-                        .collect();
-                    if !missing.is_empty() {
-                        return Err(err(format!(
-                            "{code} before every axis has a position ({} unknown): home with G28 naming every axis, or give every axis on the first move",
-                            missing.join(", ")
-                        )));
-                    }
-                }
-                // Every axis given on the first move: the machine starts there.
-                let to = if moves_axis {
-                    Some(target(m, &st, &vals, from))
-                } else {
-                    from
-                };
-                if let Some(to) = to {
-                    st.axes = to.map(Some);
-                }
-                st.e += de;
-                // A line that changes nothing is no motion for a controller.
-                if let (Some(from), Some(to)) = (from, to) {
-                    if to != from || de != 0.0 {
-                        out.push(GcodeMove {
-                            line,
-                            linear: code.ends_with('1'),
-                            from,
-                            to,
-                            e: st.e,
-                            de,
-                            f: st.f,
-                            inverse_time: st.inverse_time,
-                            tcp: st.tcp,
-                            tool: st.tool,
-                        });
-                    }
-                }
-            }
-            // The rest was checked above: tool changes, and codes that do
-            // not move the machine.
-            c => {
-                if let Some(t) = tool_change(c) {
-                    st.tool = t;
-                }
+        Ok(vals)
+    }
+
+    /// `G28`: homing sets the axes it names, in machine coordinates in
+    /// every mode.
+    fn home(&mut self, vals: &Slots) {
+        let post = &self.m.post;
+        let signs = [1.0, 1.0, 1.0, post.tilt_sign, post.c_sign];
+        for ((axis, v), sign) in self.axes.iter_mut().zip(&vals[..5]).zip(signs) {
+            if let Some(x) = v {
+                *axis = Some(x * sign);
             }
         }
     }
-    Ok(out)
+
+    /// `G0`/`G1` (`code`) on line `line`: the motion, unless the line
+    /// changes nothing.
+    fn motion(
+        &mut self,
+        line: usize,
+        code: &str,
+        vals: &Slots,
+    ) -> Result<Option<GcodeMove>, String> {
+        if let Some(x) = vals[6] {
+            if x <= 0.0 {
+                return Err(format!("feed F{x} must be positive"));
+            }
+            self.f = x;
+        }
+        let moves_axis = vals[..5].iter().any(|v| v.is_some());
+        let de = match vals[5] {
+            Some(x) if self.relative_e => x,
+            Some(x) => x - self.e,
+            None => 0.0,
+        };
+        let from = known(&self.axes);
+        if from.is_none() && moves_axis {
+            self.check_start(code, vals)?;
+        }
+        // Every axis given on the first move: the machine starts there.
+        let to = if moves_axis {
+            Some(self.target(vals, from))
+        } else {
+            from
+        };
+        if let Some(to) = to {
+            self.axes = to.map(Some);
+        }
+        self.e += de;
+        // A line that changes nothing is no motion for a controller.
+        Ok(match (from, to) {
+            (Some(from), Some(to)) if to != from || de != 0.0 => Some(GcodeMove {
+                line,
+                linear: code.ends_with('1'),
+                from,
+                to,
+                e: self.e,
+                de,
+                f: self.f,
+                inverse_time: self.inverse_time,
+                tcp: self.tcp,
+                tool: self.tool,
+            }),
+            _ => None,
+        })
+    }
+
+    /// A first move must give every axis that is still unknown.
+    fn check_start(&self, code: &str, vals: &Slots) -> Result<(), String> {
+        let missing: Vec<String> = ['X', 'Y', 'Z', self.tilt_letter, self.c_letter]
+            .into_iter()
+            .zip(self.axes.iter().zip(&vals[..5]))
+            .filter(|(_, (a, v))| a.is_none() && v.is_none())
+            .map(|(c, _)| c.to_string())
+            .collect();
+        if missing.is_empty() {
+            return Ok(());
+        }
+        Err(format!(
+            "{code} before every axis has a position ({} unknown): home with G28 naming every axis, or give every axis on the first move",
+            missing.join(", ")
+        ))
+    }
+
+    /// The machine axes after a motion line with words `vals`, from
+    /// `from` (`None`: every axis is given).
+    fn target(&self, vals: &Slots, from: Option<[f64; 5]>) -> [f64; 5] {
+        let m = self.m;
+        let post = &m.post;
+        let from = from.unwrap_or([0.0; 5]);
+        let tilt = vals[3].map_or(from[3], |x| x * post.tilt_sign);
+        let c = vals[4].map_or(from[4], |x| x * post.c_sign);
+        let (tr, cr) = (tilt.to_radians(), c.to_radians());
+        if self.tcp {
+            // The words are the tip in the part frame.
+            let cur = tip_position(
+                m.configuration,
+                m.rotary,
+                m.offsets(),
+                [from[0], from[1], from[2]],
+                from[3].to_radians(),
+                from[4].to_radians(),
+            );
+            let p = std::array::from_fn(|k| vals[k].unwrap_or(cur[k]));
+            let xyz = linear_axes(m.configuration, m.rotary, m.offsets(), p, tr, cr);
+            return [xyz[0], xyz[1], xyz[2], tilt, c];
+        }
+        let off = if self.tool == m.support.tool && self.tool != m.extrusion.tool {
+            m.support.offset
+        } else {
+            [0.0; 2]
+        };
+        let x = vals[0].map_or(from[0], |x| x + off[0]);
+        let y = vals[1].map_or(from[1], |y| y + off[1]);
+        let z = vals[2].unwrap_or(from[2]);
+        [x, y, z, tilt, c]
+    }
 }
 
 fn known(axes: &[Option<f64>; 5]) -> Option<[f64; 5]> {
@@ -270,39 +375,6 @@ fn known(axes: &[Option<f64>; 5]) -> Option<[f64; 5]> {
         v[k] = axes[k]?;
     }
     Some(v)
-}
-
-/// The machine axes after a motion line with words `vals`, from `from`
-/// (`None`: every axis is given).
-fn target(m: &Machine, st: &State, vals: &[Option<f64>; 7], from: Option<[f64; 5]>) -> [f64; 5] {
-    let post = &m.post;
-    let from = from.unwrap_or([0.0; 5]);
-    let tilt = vals[3].map_or(from[3], |x| x * post.tilt_sign);
-    let c = vals[4].map_or(from[4], |x| x * post.c_sign);
-    let (tr, cr) = (tilt.to_radians(), c.to_radians());
-    if st.tcp {
-        // The words are the tip in the part frame.
-        let cur = tip_position(
-            m.configuration,
-            m.rotary,
-            m.offsets(),
-            [from[0], from[1], from[2]],
-            from[3].to_radians(),
-            from[4].to_radians(),
-        );
-        let p = std::array::from_fn(|k| vals[k].unwrap_or(cur[k]));
-        let xyz = linear_axes(m.configuration, m.rotary, m.offsets(), p, tr, cr);
-        return [xyz[0], xyz[1], xyz[2], tilt, c];
-    }
-    let off = if st.tool == m.support.tool && st.tool != m.extrusion.tool {
-        m.support.offset
-    } else {
-        [0.0; 2]
-    };
-    let x = vals[0].map_or(from[0], |x| x + off[0]);
-    let y = vals[1].map_or(from[1], |y| y + off[1]);
-    let z = vals[2].unwrap_or(from[2]);
-    [x, y, z, tilt, c]
 }
 
 /// The words of one line, upper-cased: the code (`G1`, `M104`, `T2`,

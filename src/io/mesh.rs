@@ -6,6 +6,7 @@
 
 use super::{read_to_string, InputError};
 use crate::geometry::Mesh;
+use glam::{Mat4, Vec3};
 use std::path::Path;
 
 /// Load a triangle mesh from `.obj`, `.stl`, `.gltf` or `.glb`.
@@ -40,9 +41,8 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, InputError> {
 /// OBJ: parsed by `tobj`; when it refuses the file, yields a coordinate
 /// that is not finite or would drop a face of fewer than three vertices
 /// (tobj reads `f 1 2` as a line), the line-level check finds the line to
-/// name. A valid file is parsed once: checking every file line by line
-/// first parsed every number twice (dome_cut's 169 layers: its toolpath
-/// load 0.61 s with it).
+/// name. The check runs only on files tobj refuses, so a valid file's
+/// numbers are parsed once.
 fn load_obj(path: &Path) -> Result<Mesh, InputError> {
     let text = read_to_string(path)?;
     // Plain files (every layer surface of the data set) are read in one
@@ -120,77 +120,65 @@ fn check_obj(path: &Path, text: &str) -> Result<(), InputError> {
         .count() as i64;
     let mut seen = 0i64;
     for (i, line) in text.lines().enumerate() {
-        let n = i + 1;
         let mut it = line.split_whitespace();
-        match it.next() {
+        let checked = match it.next() {
             Some("v") => {
                 seen += 1;
-                let vals: Vec<&str> = it.collect();
-                if vals.len() < 3 {
-                    return Err(InputError::at(
-                        path,
-                        n,
-                        format!(
-                            "vertex has {} coordinates, needs 3: fix this line",
-                            vals.len()
-                        ),
-                    ));
-                }
-                for v in &vals[..3] {
-                    match v.parse::<f32>() {
-                        Ok(x) if x.is_finite() => {}
-                        Ok(_) => {
-                            return Err(InputError::at(
-                                path,
-                                n,
-                                format!(
-                                "vertex coordinate {v}: every coordinate must be a finite number"
-                            ),
-                            ))
-                        }
-                        Err(_) => {
-                            return Err(InputError::at(
-                                path,
-                                n,
-                                format!("vertex coordinate '{v}' is not a number: fix this line"),
-                            ))
-                        }
-                    }
-                }
+                check_vertex(it.collect())
             }
-            Some("f") => {
-                let refs: Vec<&str> = it.collect();
-                if refs.len() < 3 {
-                    return Err(InputError::at(
-                        path,
-                        n,
-                        format!(
-                            "face has {} vertices, needs at least 3: fix this line",
-                            refs.len()
-                        ),
-                    ));
-                }
-                for r in refs {
-                    let idx = r.split('/').next().unwrap_or("");
-                    let k: i64 = idx.parse().map_err(|_| {
-                        InputError::at(
-                            path,
-                            n,
-                            format!("face index '{r}' is not an integer: fix this line"),
-                        )
-                    })?;
-                    // Negative indices count back from the vertices so far.
-                    let resolved = if k < 0 { seen + k + 1 } else { k };
-                    if k == 0 || resolved < 1 || resolved > vertex_count {
-                        return Err(InputError::at(
-                            path,
-                            n,
-                            format!("face index {k} is out of range (the file has {vertex_count} vertices): fix the face or add the vertex"),
-                        ));
-                    }
-                }
+            Some("f") => check_face(it.collect(), seen, vertex_count),
+            _ => Ok(()),
+        };
+        checked.map_err(|msg| InputError::at(path, i + 1, msg))?;
+    }
+    Ok(())
+}
+
+/// A `v` statement's coordinates: at least three, the first three finite
+/// numbers.
+fn check_vertex(vals: Vec<&str>) -> Result<(), String> {
+    if vals.len() < 3 {
+        return Err(format!(
+            "vertex has {} coordinates, needs 3: fix this line",
+            vals.len()
+        ));
+    }
+    for v in &vals[..3] {
+        match v.parse::<f32>() {
+            Ok(x) if x.is_finite() => {}
+            Ok(_) => {
+                return Err(format!(
+                    "vertex coordinate {v}: every coordinate must be a finite number"
+                ))
             }
-            _ => {}
+            Err(_) => {
+                return Err(format!(
+                    "vertex coordinate '{v}' is not a number: fix this line"
+                ))
+            }
+        }
+    }
+    Ok(())
+}
+
+/// An `f` statement's vertex references: at least three, each naming one
+/// of the file's `vertex_count` vertices (a negative one counts back from
+/// the `seen` so far).
+fn check_face(refs: Vec<&str>, seen: i64, vertex_count: i64) -> Result<(), String> {
+    if refs.len() < 3 {
+        return Err(format!(
+            "face has {} vertices, needs at least 3: fix this line",
+            refs.len()
+        ));
+    }
+    for r in refs {
+        let idx = r.split('/').next().unwrap_or("");
+        let k: i64 = idx
+            .parse()
+            .map_err(|_| format!("face index '{r}' is not an integer: fix this line"))?;
+        let resolved = if k < 0 { seen + k + 1 } else { k };
+        if k == 0 || resolved < 1 || resolved > vertex_count {
+            return Err(format!("face index {k} is out of range (the file has {vertex_count} vertices): fix the face or add the vertex"));
         }
     }
     Ok(())
@@ -276,12 +264,13 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
         .map_err(|e| InputError::file(path, format!("invalid glTF ({e}): re-export the mesh")))?;
     let mut mesh = Mesh::default();
     let scene = doc.default_scene().or_else(|| doc.scenes().next());
-    let mut stack: Vec<(gltf::Node, [[f32; 4]; 4])> = match &scene {
-        Some(s) => s.nodes().map(|n| (n, IDENTITY)).collect(),
+    let mut stack: Vec<(gltf::Node, Mat4)> = match &scene {
+        Some(s) => s.nodes().map(|n| (n, Mat4::IDENTITY)).collect(),
         None => Vec::new(),
     };
     while let Some((node, parent)) = stack.pop() {
-        let m = mul(parent, node.transform().matrix());
+        // Column-major, as glTF stores it.
+        let m = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         if let Some(gm) = node.mesh() {
             for prim in gm.primitives() {
                 if prim.mode() != gltf::mesh::Mode::Triangles {
@@ -293,7 +282,7 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
                 };
                 let base = mesh.vertices.len() as u32;
                 for p in pos {
-                    let q = apply(m, p);
+                    let q = m.transform_point3(Vec3::from(p)).to_array();
                     if q.iter().any(|c| !c.is_finite()) {
                         return Err(InputError::file(
                             path,
@@ -327,26 +316,4 @@ fn load_gltf(path: &Path) -> Result<Mesh, InputError> {
         stack.extend(node.children().map(|c| (c, m)));
     }
     Ok(mesh)
-}
-
-const IDENTITY: [[f32; 4]; 4] = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
-
-/// Column-major 4×4 product `a * b`.
-fn mul(a: [[f32; 4]; 4], b: [[f32; 4]; 4]) -> [[f32; 4]; 4] {
-    let mut r = [[0.0; 4]; 4];
-    for (c, col) in r.iter_mut().enumerate() {
-        for (row, v) in col.iter_mut().enumerate() {
-            *v = (0..4).map(|k| a[k][row] * b[c][k]).sum();
-        }
-    }
-    r
-}
-
-fn apply(m: [[f32; 4]; 4], p: [f32; 3]) -> [f32; 3] {
-    std::array::from_fn(|row| m[0][row] * p[0] + m[1][row] * p[1] + m[2][row] * p[2] + m[3][row])
 }

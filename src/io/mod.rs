@@ -1,4 +1,5 @@
-//! Reading inputs (toolpaths, meshes) and writing outputs atomically.
+//! Reading inputs (toolpaths, meshes, machine programs) and writing outputs
+//! (programs, plan.csv, toolpath folders) atomically.
 //!
 //! Every input problem is an [`InputError`] whose message is one line naming
 //! the file, the line (or facet) and what to do about it.
@@ -11,7 +12,7 @@ pub mod number;
 pub mod obj_plain;
 pub mod output;
 pub mod plan_csv;
-pub mod toolpath;
+pub mod toolpath_folder;
 
 use std::path::{Path, PathBuf};
 

@@ -9,11 +9,10 @@
 //! caller reads the file with `tobj`.
 //!
 //! Why: `tobj` reads a line into a `String` and looks every face corner
-//! up in a SipHash map; dome_cut's 169 layers (3.3 M lines, 67 MB) spent
-//! most of the toolpath load there. Read as bytes, with short decimals
-//! converted without the general parser, the same files take about half
-//! of what this module's first, `str`-based version took (`check dome_cut`
-//! paired 0.96 of the whole run's CPU).
+//! up in a SipHash map, which dominates loading a toolpath of many layer
+//! surfaces (millions of lines). Here the bytes are read directly, and
+//! short decimals are converted without the general parser
+//! ([`super::number::parse_f32`]).
 
 use super::number::parse_f32;
 use crate::geometry::Mesh;

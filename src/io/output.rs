@@ -2,7 +2,11 @@
 //! into place, so a failed run never leaves a half-written file.
 
 use std::io::Write;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// A file of an output folder: its path relative to the folder, and its
+/// bytes.
+pub type FolderFile = (PathBuf, Vec<u8>);
 
 /// Write `bytes` to `path` atomically.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
@@ -29,10 +33,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// partial output. If `dir` exists, each top-level entry written replaces
 /// the one of the same name (a stale `waypoint/` folder goes as a whole);
 /// other entries are left alone.
-pub fn write_folder_atomic(
-    dir: &Path,
-    files: &[(std::path::PathBuf, Vec<u8>)],
-) -> std::io::Result<()> {
+pub fn write_folder_atomic(dir: &Path, files: &[FolderFile]) -> std::io::Result<()> {
     let parent = dir
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -52,10 +53,10 @@ pub fn write_folder_atomic(
         std::fs::rename(&kept, dir)?;
         return Ok(());
     }
-    let mut tops: Vec<std::path::PathBuf> = files
+    let mut tops: Vec<PathBuf> = files
         .iter()
         .filter_map(|(rel, _)| rel.components().next())
-        .map(|c| std::path::PathBuf::from(c.as_os_str()))
+        .map(|c| PathBuf::from(c.as_os_str()))
         .collect();
     tops.sort();
     tops.dedup();

@@ -28,6 +28,7 @@ pub use machine_file::{
 pub use post::{Dialect, ExtrusionMode, FeedMode, Interpolation, Post};
 
 use crate::geometry::{Pose, V3};
+use glam::{DMat3, DVec3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -64,8 +65,8 @@ pub struct Axes {
 
 /// Wrap an angle into (−π, π].
 pub fn wrap(a: f64) -> f64 {
-    // `%` is a software fmod (1 % of the tilted row's CPU); it returns an
-    // angle within a turn unchanged, and most are.
+    // `%` is a software fmod, dear in the planner's inner loops; it
+    // returns an angle within a turn unchanged, and most are.
     let mut a = if a.abs() < 2.0 * PI {
         a
     } else {
@@ -105,40 +106,27 @@ pub fn ik_angles(rot: Rotary, n: [f64; 3]) -> [(f64, f64); 2] {
     [(-t, wrap(c)), (t, wrap(c + PI))]
 }
 
-fn rz(a: f64) -> [[f64; 3]; 3] {
-    let (s, c) = a.sin_cos();
-    [[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]]
-}
-fn ry(a: f64) -> [[f64; 3]; 3] {
-    let (s, c) = a.sin_cos();
-    [[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]]
-}
-fn rx(a: f64) -> [[f64; 3]; 3] {
-    let (s, c) = a.sin_cos();
-    [[1.0, 0.0, 0.0], [0.0, c, -s], [0.0, s, c]]
-}
-fn mul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    std::array::from_fn(|i| std::array::from_fn(|j| (0..3).map(|k| a[i][k] * b[k][j]).sum()))
-}
-fn apply(m: [[f64; 3]; 3], v: [f64; 3]) -> [f64; 3] {
-    std::array::from_fn(|i| m[i][0] * v[0] + m[i][1] * v[1] + m[i][2] * v[2])
-}
-fn transpose(m: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    std::array::from_fn(|i| std::array::from_fn(|j| m[j][i]))
+/// The head's rotation in the part frame (head frame → part frame).
+pub fn head_rotation(rot: Rotary, tilt: f64, c: f64) -> DMat3 {
+    match rot {
+        Rotary::BC => DMat3::from_rotation_z(-c) * DMat3::from_rotation_y(-tilt),
+        Rotary::AC => DMat3::from_rotation_z(-c) * DMat3::from_rotation_x(-tilt),
+    }
 }
 
-/// The head's rotation in the part frame (head frame → part frame).
-pub fn head_rotation(rot: Rotary, tilt: f64, c: f64) -> [[f64; 3]; 3] {
+/// Configuration III's table rotation `R_y(B)·R_z(C)` (A/C: `R_x(A)·R_z(C)`):
+/// part frame → machine frame.
+fn table_rotation(rot: Rotary, t: f64, c: f64) -> DMat3 {
     match rot {
-        Rotary::BC => mul(rz(-c), ry(-tilt)),
-        Rotary::AC => mul(rz(-c), rx(-tilt)),
+        Rotary::BC => DMat3::from_rotation_y(t) * DMat3::from_rotation_z(c),
+        Rotary::AC => DMat3::from_rotation_x(t) * DMat3::from_rotation_z(c),
     }
 }
 
 /// The head pose in the part frame for tip `p` and rotary angles.
 pub fn head_pose(rot: Rotary, p: [f64; 3], tilt: f64, c: f64) -> Pose {
     let m = head_rotation(rot, tilt, c);
-    let col = |j: usize| [m[0][j] as f32, m[1][j] as f32, m[2][j] as f32];
+    let col = |j: usize| m.col(j).as_vec3().to_array();
     Pose {
         cols: [col(0), col(1), col(2)],
         tip: p.map(|x| x as f32),
@@ -181,8 +169,7 @@ pub fn linear_axes(
             py - r * sc - h * cc * st,
             pz + h * ct - h,
         ],
-        (Configuration::III, Rotary::BC) => apply(mul(ry(t), rz(c)), p),
-        (Configuration::III, Rotary::AC) => apply(mul(rx(t), rz(c)), p),
+        (Configuration::III, _) => (table_rotation(rot, t, c) * DVec3::from(p)).to_array(),
     }
 }
 
@@ -220,9 +207,16 @@ pub fn tip_position(
             y + r * sc + h * cc * st,
             z - h * ct + h,
         ],
-        (Configuration::III, Rotary::BC) => apply(transpose(mul(ry(t), rz(c))), xyz),
-        (Configuration::III, Rotary::AC) => apply(transpose(mul(rx(t), rz(c))), xyz),
+        (Configuration::III, _) => {
+            (table_rotation(rot, t, c).transpose() * DVec3::from(xyz)).to_array()
+        }
     }
+}
+
+/// The point a fraction `t` of the way from `a` to `b`.
+fn lerp(a: [f64; 3], b: [f64; 3], t: f64) -> [f64; 3] {
+    let (a, b) = (DVec3::from(a), DVec3::from(b));
+    (a + (b - a) * t).to_array()
 }
 
 /// Decimals of every axis value in the written program (mm and degrees).
@@ -254,7 +248,7 @@ impl Axes {
     /// between two G-code lines in the joint-space dialect).
     pub fn lerp(&self, b: &Axes, t: f64) -> Axes {
         Axes {
-            xyz: std::array::from_fn(|k| self.xyz[k] + t * (b.xyz[k] - self.xyz[k])),
+            xyz: lerp(self.xyz, b.xyz, t),
             tilt: self.tilt + t * (b.tilt - self.tilt),
             c: self.c + t * (b.c - self.c),
         }
@@ -312,10 +306,7 @@ impl Machine {
     pub fn tip_along(&self, a: &Axes, b: &Axes, t: f64) -> [f64; 3] {
         match self.post.interpolation() {
             Interpolation::Joint => self.tip(&a.lerp(b, t)),
-            Interpolation::TipLinear => {
-                let (pa, pb) = (self.tip(a), self.tip(b));
-                std::array::from_fn(|k| pa[k] + t * (pb[k] - pa[k]))
-            }
+            Interpolation::TipLinear => lerp(self.tip(a), self.tip(b), t),
         }
     }
 }
@@ -404,12 +395,9 @@ mod tests {
                 // The two solutions differ by a half-turn about the axis.
                 let r0 = head_rotation(m.rotary, sols[0].tilt, sols[0].c);
                 let r1 = head_rotation(m.rotary, sols[1].tilt, sols[1].c);
-                for i in 0..3 {
-                    assert!(
-                        (r0[i][0] + r1[i][0]).abs() < 1e-9 && (r0[i][1] + r1[i][1]).abs() < 1e-9
-                    );
-                    assert!((r0[i][2] - r1[i][2]).abs() < 1e-9);
-                }
+                assert!((r0.x_axis + r1.x_axis).abs().max_element() < 1e-9);
+                assert!((r0.y_axis + r1.y_axis).abs().max_element() < 1e-9);
+                assert!((r0.z_axis - r1.z_axis).abs().max_element() < 1e-9);
             }
         }
     }

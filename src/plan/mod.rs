@@ -495,7 +495,7 @@ const RETAINED_AT_MOST: usize = 512 << 20;
 /// question: the waypoints flattened into continuous runs, the index of
 /// which layer a point reads as, the smoothed orientations (stage 1) and
 /// the singular runs' angles (stage 2). It needs no scene, so a caller
-/// can make it while the scene is built ([`crate::job::Job::load_beside`]);
+/// can make it while the scene is built ([`crate::job::LoadedJob::load_beside`]);
 /// [`plan`] makes it first.
 pub struct Prepared {
     /// Tip positions, input and smoothed directions, layer of each waypoint.

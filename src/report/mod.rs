@@ -1,8 +1,12 @@
 //! What a process engineer looks at: plots (`plots.rs`), a 3D scene
 //! (`scene_glb.rs`) and a self-contained HTML report (`html.rs`), all made
-//! from a [`Plan`] with no extra tool.
+//! from a [`Plan`] (or a [`crate::simulate::Simulation`]) with no extra
+//! tool; and what a program reads: the commands' JSON documents
+//! (`json.rs`) and a simulation's table of moves (`moves_csv.rs`).
 
 pub mod html;
+pub mod json;
+pub mod moves_csv;
 pub mod plots;
 pub mod scene_glb;
 

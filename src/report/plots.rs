@@ -6,11 +6,12 @@
 //! the same on every machine.
 
 use super::{layer_table, tip_speeds};
+use crate::io::output::FolderFile;
 use crate::kinematics::Machine;
 use crate::plan::Plan;
 use crate::simulate::{MoveReport, Simulation};
 use plotters::coord::types::RangedCoordf64;
-use plotters::coord::Shift;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
 use rayon::prelude::*;
 use std::path::Path;
@@ -44,6 +45,20 @@ type DrawResult = Result<(), String>;
 
 fn err<E: std::fmt::Debug>(e: E) -> String {
     format!("{e:?}")
+}
+
+/// The series' legend, boxed, at `position` (plotters puts it at the
+/// middle of the right edge unless told otherwise).
+fn legend<'a, DB: DrawingBackend + 'a, CT: CoordTranslate>(
+    c: &mut ChartContext<'a, DB, CT>,
+    position: SeriesLabelPosition,
+) -> DrawResult {
+    c.configure_series_labels()
+        .position(position)
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .map_err(err)
 }
 
 /// One figure drawn into an SVG string of the report's size.
@@ -121,43 +136,52 @@ pub fn figures(m: &Machine, plan: &Plan) -> Result<Vec<Figure>, String> {
         .collect()
 }
 
-/// Write every figure as `<name>.svg` and `<name>.png` into `dir` (the
-/// caller makes the whole folder appear at once); figures are drawn in
-/// parallel and returned in order.
-pub fn write_figures(m: &Machine, plan: &Plan, dir: &Path) -> Result<Vec<Figure>, String> {
+/// Every figure of `plan`, and the files of its plots folder:
+/// `plots/<name>.svg` and `plots/<name>.png` per figure. Figures are drawn
+/// in parallel and returned in order.
+pub fn figure_files(m: &Machine, plan: &Plan) -> Result<(Vec<Figure>, Vec<FolderFile>), String> {
     fonts();
-    std::fs::create_dir_all(dir).map_err(err)?;
-    PlanChart::all(plan)
+    let drawn: Vec<(Figure, Vec<u8>)> = PlanChart::all(plan)
         .par_iter()
         .map(|c| {
             let f = c.svg(m, plan)?;
-            std::fs::write(dir.join(format!("{}.svg", f.name)), f.svg.as_bytes()).map_err(err)?;
             let mut rgb = vec![0u8; (SIZE.0 * SIZE.1 * 3) as usize];
             c.draw(
                 BitMapBackend::with_buffer(&mut rgb, SIZE).into_drawing_area(),
                 m,
                 plan,
             )?;
-            write_png(&dir.join(format!("{}.png", f.name)), &rgb)?;
-            Ok(f)
+            Ok((f, encode_png(&rgb)?))
         })
-        .collect()
+        .collect::<Result<_, String>>()?;
+    let mut files = Vec::with_capacity(2 * drawn.len());
+    let mut figures = Vec::with_capacity(drawn.len());
+    for (f, png) in drawn {
+        let dir = Path::new("plots");
+        files.push((
+            dir.join(format!("{}.svg", f.name)),
+            f.svg.clone().into_bytes(),
+        ));
+        files.push((dir.join(format!("{}.png", f.name)), png));
+        figures.push(f);
+    }
+    Ok((figures, files))
 }
 
-/// Write an RGB image of [`SIZE`] as PNG: fdeflate's fast mode and the
-/// Paeth filter on every row. plotters' own encoder (through image 0.24)
-/// tried every filter on every row: 1.2 % of `plan simple_curve`'s CPU,
-/// 0.4 % now, for a plots folder of about the same size.
-fn write_png(path: &Path, rgb: &[u8]) -> Result<(), String> {
-    let file = std::io::BufWriter::new(std::fs::File::create(path).map_err(err)?);
-    let mut png = png::Encoder::new(file, SIZE.0, SIZE.1);
+/// An RGB image of [`SIZE`] as PNG: fdeflate's fast mode and the Paeth
+/// filter on every row, which makes files of about the size trying every
+/// filter on every row makes, in a fraction of the time.
+fn encode_png(rgb: &[u8]) -> Result<Vec<u8>, String> {
+    let mut bytes = Vec::new();
+    let mut png = png::Encoder::new(&mut bytes, SIZE.0, SIZE.1);
     png.set_color(png::ColorType::Rgb);
     png.set_depth(png::BitDepth::Eight);
     png.set_compression(png::Compression::Fast);
     png.set_filter(png::Filter::Paeth);
     let mut writer = png.write_header().map_err(err)?;
     writer.write_image_data(rgb).map_err(err)?;
-    writer.finish().map_err(err)
+    writer.finish().map_err(err)?;
+    Ok(bytes)
 }
 
 /// Buckets along x a per-waypoint line is drawn with (a few per pixel
@@ -196,9 +220,9 @@ fn bc_chart<DB: DrawingBackend>(
     plan: &Plan,
     layer: usize,
 ) -> DrawResult {
-    // One run of waypoints, not a pass over all of them per chart
-    // (dome_cut: 169 charts drawn twice over 176 k waypoints had been a
-    // third of the report's time).
+    // The layer's waypoints are one run of the plan, found by bisection,
+    // not a pass over every waypoint per chart: a part of hundreds of
+    // layers draws hundreds of charts, each twice (SVG and PNG).
     let (w, idx) = (&plan.waypoints, plan.layer_waypoints(layer));
     let bc = |a: &crate::kinematics::Axes| [a.tilt.to_degrees(), a.c.to_degrees()];
     let inp: Vec<[f64; 2]> = plan.input_axes[idx.clone()].iter().map(bc).collect();
@@ -287,11 +311,7 @@ fn bc_lines<DB: DrawingBackend>(
             .label(l.0)
             .legend(move |(x, y)| PathElement::new([(x, y), (x + 12, y)], color));
         }
-        c.configure_series_labels()
-            .background_style(WHITE.mix(0.8))
-            .border_style(BLACK)
-            .draw()
-            .map_err(err)?;
+        legend(&mut c, SeriesLabelPosition::MiddleRight)?;
     }
     root.present().map_err(err)
 }
@@ -379,12 +399,7 @@ fn histogram<DB: DrawingBackend>(
         .label(label)
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    c.configure_series_labels()
-        .position(SeriesLabelPosition::UpperLeft)
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
+    legend(&mut c, SeriesLabelPosition::UpperLeft)?;
     root.present().map_err(err)
 }
 
@@ -445,11 +460,7 @@ fn bars<DB: DrawingBackend>(
         .label(label)
         .legend(move |(x, y)| Rectangle::new([(x, y - 5), (x + 12, y + 5)], color.filled()));
     }
-    c.configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
+    legend(&mut c, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(err)
 }
 
@@ -576,11 +587,7 @@ fn line_chart<DB: DrawingBackend>(
     .map_err(err)?
     .label("program")
     .legend(|(x, y)| PathElement::new([(x, y), (x + 12, y)], PLAN));
-    c.configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .map_err(err)?;
+    legend(&mut c, SeriesLabelPosition::MiddleRight)?;
     root.present().map_err(err)
 }
 

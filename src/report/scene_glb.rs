@@ -4,6 +4,7 @@
 //! replacements (green). Written by hand: the format is a JSON document and
 //! one binary buffer, and every accessor carries its exact min/max.
 
+use crate::kinematics::{head_pose, Machine};
 use crate::plan::Plan;
 use crate::scene::Scene;
 use serde_json::{json, Value};
@@ -19,10 +20,15 @@ pub const COLORS: [[f32; 4]; 4] = [
 /// How many colliding input poses (and their replacements) to show.
 pub const HEADS: usize = 3;
 
+/// The glTF document being built: the binary buffer, its views and
+/// accessors, the meshes and the nodes.
+#[derive(Default)]
 struct Builder {
     bin: Vec<u8>,
     views: Vec<Value>,
     accessors: Vec<Value>,
+    meshes: Vec<Value>,
+    nodes: Vec<Value>,
 }
 
 impl Builder {
@@ -109,79 +115,98 @@ fn quaternion(c: [[f32; 3]; 3]) -> [f32; 4] {
 }
 
 /// The GLB bytes for `plan` over `scene`.
-pub fn scene_glb(scene: &Scene, plan: &Plan, machine: &crate::kinematics::Machine) -> Vec<u8> {
-    let mut b = Builder {
-        bin: Vec::new(),
-        views: Vec::new(),
-        accessors: Vec::new(),
-    };
-    let mut meshes = Vec::new();
-    let mut nodes = Vec::new();
+pub fn scene_glb(scene: &Scene, plan: &Plan, machine: &Machine) -> Vec<u8> {
+    let mut b = Builder::default();
+    b.part(scene);
+    b.toolpath(plan);
+    b.heads(scene, plan, machine);
+    b.into_glb()
+}
+
+/// The scene's materials, by index: platform, part, toolpath, head at an
+/// input pose, head at a planned pose.
+fn materials() -> Vec<Value> {
     let material = |name: &str, rgba: [f32; 4]| json!({"name": name, "pbrMetallicRoughness": {"baseColorFactor": rgba, "metallicFactor": 0.0, "roughnessFactor": 0.8}, "doubleSided": true});
-    let materials = vec![
+    vec![
         material("platform", [0.55, 0.55, 0.6, 1.0]),
         material("part", [0.85, 0.80, 0.70, 1.0]),
         material("toolpath", [1.0, 1.0, 1.0, 1.0]),
         material("head at input pose", [0.9, 0.1, 0.1, 0.6]),
         material("head at planned pose", [0.1, 0.7, 0.2, 0.6]),
-    ];
-    // Platform and layer surfaces.
-    let mut part_prims = Vec::new();
-    for g in &scene.groups {
-        if g.mesh.triangles.is_empty() {
-            continue;
+    ]
+}
+
+impl Builder {
+    /// The platform and the layer surfaces: mesh 0, node `part`.
+    fn part(&mut self, scene: &Scene) {
+        let mut prims = Vec::new();
+        for g in &scene.groups {
+            if g.mesh.triangles.is_empty() {
+                continue;
+            }
+            let pos = self.vec3(&g.mesh.vertices);
+            let idx = self.indices(&g.mesh.triangles);
+            let mat = if g.layer.is_none() { 0 } else { 1 };
+            prims.push(json!({"attributes": {"POSITION": pos}, "indices": idx, "material": mat}));
         }
-        let pos = b.vec3(&g.mesh.vertices);
-        let idx = b.indices(&g.mesh.triangles);
-        let mat = if g.layer.is_none() { 0 } else { 1 };
-        part_prims.push(json!({"attributes": {"POSITION": pos}, "indices": idx, "material": mat}));
+        self.meshes
+            .push(json!({"name": "printed part", "primitives": prims}));
+        self.nodes.push(json!({"name": "part", "mesh": 0}));
     }
-    meshes.push(json!({"name": "printed part", "primitives": part_prims}));
-    nodes.push(json!({"name": "part", "mesh": 0}));
-    // The toolpath: one line per segment, coloured by its end's status.
-    let w = &plan.waypoints;
-    let mut lp = Vec::new();
-    let mut lc = Vec::new();
-    for i in 1..w.len() {
-        if w[i].section_start || w[i].layer != w[i - 1].layer {
-            continue;
+
+    /// The toolpath: one line per segment, coloured by its end's status.
+    fn toolpath(&mut self, plan: &Plan) {
+        let w = &plan.waypoints;
+        let mut lp = Vec::new();
+        let mut lc = Vec::new();
+        for i in 1..w.len() {
+            if w[i].section_start || w[i].layer != w[i - 1].layer {
+                continue;
+            }
+            let s = if w[i].break_before {
+                3
+            } else if w[i].was_colliding {
+                1
+            } else if w[i].singular {
+                2
+            } else {
+                0
+            };
+            for v in [&w[i - 1], &w[i]] {
+                lp.push(v.p.map(|x| x as f32));
+                lc.push(COLORS[s]);
+            }
         }
-        let s = if w[i].break_before {
-            3
-        } else if w[i].was_colliding {
-            1
-        } else if w[i].singular {
-            2
-        } else {
-            0
-        };
-        for v in [&w[i - 1], &w[i]] {
-            lp.push(v.p.map(|x| x as f32));
-            lc.push(COLORS[s]);
+        if lp.is_empty() {
+            return;
         }
+        let pos = self.vec3(&lp);
+        let col = self.vec4(&lc);
+        self.meshes.push(json!({"name": "toolpath", "primitives": [{"attributes": {"POSITION": pos, "COLOR_0": col}, "mode": 1, "material": 2}]}));
+        self.nodes
+            .push(json!({"name": "toolpath", "mesh": self.meshes.len() - 1}));
     }
-    if !lp.is_empty() {
-        let pos = b.vec3(&lp);
-        let col = b.vec4(&lc);
-        meshes.push(json!({"name": "toolpath", "primitives": [{"attributes": {"POSITION": pos, "COLOR_0": col}, "mode": 1, "material": 2}]}));
-        nodes.push(json!({"name": "toolpath", "mesh": meshes.len() - 1}));
-    }
-    // The head at the first few colliding input poses and at their plans.
-    let worst: Vec<usize> = (0..w.len())
-        .filter(|&i| w[i].was_colliding)
-        .take(HEADS)
-        .collect();
-    if !worst.is_empty() {
-        let pos = b.vec3(&scene.head.mesh.vertices);
-        let idx = b.indices(&scene.head.mesh.triangles);
-        meshes.push(json!({"name": "head (input)", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx, "material": 3}]}));
-        meshes.push(json!({"name": "head (plan)", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx, "material": 4}]}));
-        let hm = meshes.len() - 2;
+
+    /// The head at the first few colliding input poses and at their plans.
+    fn heads(&mut self, scene: &Scene, plan: &Plan, machine: &Machine) {
+        let w = &plan.waypoints;
+        let worst: Vec<usize> = (0..w.len())
+            .filter(|&i| w[i].was_colliding)
+            .take(HEADS)
+            .collect();
+        if worst.is_empty() {
+            return;
+        }
+        let pos = self.vec3(&scene.head.mesh.vertices);
+        let idx = self.indices(&scene.head.mesh.triangles);
+        self.meshes.push(json!({"name": "head (input)", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx, "material": 3}]}));
+        self.meshes.push(json!({"name": "head (plan)", "primitives": [{"attributes": {"POSITION": pos}, "indices": idx, "material": 4}]}));
+        let hm = self.meshes.len() - 2;
         for &i in &worst {
             for (k, axes) in [(0, &plan.input_axes[i]), (1, &w[i].axes)] {
-                let pose = crate::kinematics::head_pose(machine.rotary, w[i].p, axes.tilt, axes.c);
+                let pose = head_pose(machine.rotary, w[i].p, axes.tilt, axes.c);
                 let label = if k == 0 { "input" } else { "plan" };
-                nodes.push(json!({
+                self.nodes.push(json!({
                     "name": format!("head at waypoint {i} ({label})"),
                     "mesh": hm + k,
                     "rotation": quaternion(pose.cols),
@@ -190,36 +215,41 @@ pub fn scene_glb(scene: &Scene, plan: &Plan, machine: &crate::kinematics::Machin
             }
         }
     }
-    while !b.bin.len().is_multiple_of(4) {
-        b.bin.push(0);
+
+    /// The GLB file: header, the JSON chunk and the binary chunk, each
+    /// padded to four bytes.
+    fn into_glb(mut self) -> Vec<u8> {
+        while !self.bin.len().is_multiple_of(4) {
+            self.bin.push(0);
+        }
+        let doc = json!({
+            "asset": {"version": "2.0", "generator": concat!("maamplan ", env!("CARGO_PKG_VERSION"))},
+            "scene": 0,
+            "scenes": [{"name": "plan", "nodes": (0..self.nodes.len()).collect::<Vec<_>>()}],
+            "nodes": self.nodes,
+            "meshes": self.meshes,
+            "materials": materials(),
+            "accessors": self.accessors,
+            "bufferViews": self.views,
+            "buffers": [{"byteLength": self.bin.len()}],
+        });
+        let mut js = serde_json::to_vec(&doc).expect("JSON");
+        while !js.len().is_multiple_of(4) {
+            js.push(b' ');
+        }
+        let total = 12 + 8 + js.len() + 8 + self.bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(js.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&js);
+        out.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&self.bin);
+        out
     }
-    let doc = json!({
-        "asset": {"version": "2.0", "generator": concat!("maamplan ", env!("CARGO_PKG_VERSION"))},
-        "scene": 0,
-        "scenes": [{"name": "plan", "nodes": (0..nodes.len()).collect::<Vec<_>>()}],
-        "nodes": nodes,
-        "meshes": meshes,
-        "materials": materials,
-        "accessors": b.accessors,
-        "bufferViews": b.views,
-        "buffers": [{"byteLength": b.bin.len()}],
-    });
-    let mut js = serde_json::to_vec(&doc).expect("JSON");
-    while !js.len().is_multiple_of(4) {
-        js.push(b' ');
-    }
-    let total = 12 + 8 + js.len() + 8 + b.bin.len();
-    let mut out = Vec::with_capacity(total);
-    out.extend_from_slice(b"glTF");
-    out.extend_from_slice(&2u32.to_le_bytes());
-    out.extend_from_slice(&(total as u32).to_le_bytes());
-    out.extend_from_slice(&(js.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"JSON");
-    out.extend_from_slice(&js);
-    out.extend_from_slice(&(b.bin.len() as u32).to_le_bytes());
-    out.extend_from_slice(b"BIN\0");
-    out.extend_from_slice(&b.bin);
-    out
 }
 
 #[cfg(test)]

@@ -107,11 +107,7 @@ pub fn machines(m: &Machine) -> (Machine, Machine) {
 /// `toolpath` (part frame, as the scene was built).
 pub fn timeline(m: &Machine, toolpath: &Toolpath, moves: &[GcodeMove]) -> Timeline {
     let reader = NearestLayer::of(toolpath);
-    let pos: Vec<[f64; 3]> = toolpath
-        .iter()
-        .map(|(_, w)| w.pos.map(|x| x as f64))
-        .collect();
-    Timeline::new(m, &reader, &pos, moves)
+    Timeline::new(m, &reader, &toolpath.positions(), moves)
 }
 
 /// Stage 2: does each line of `moves` that moves an axis come within

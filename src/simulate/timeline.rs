@@ -26,6 +26,7 @@
 use crate::io::gcode_read::{axes_of, GcodeMove};
 use crate::kinematics::Machine;
 use crate::plan::layer_reading::NearestLayer;
+use glam::DVec3;
 
 /// Longest run of waypoints one extruding move may print at once.
 const MAX_RUN: usize = 10_000;
@@ -169,17 +170,17 @@ fn blips(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Vec<Option<
     fixed
 }
 
+/// Distance from `p` to the segment `a b`.
 fn distance_to_segment(p: [f64; 3], a: [f64; 3], b: [f64; 3]) -> f64 {
-    let ab: [f64; 3] = std::array::from_fn(|k| b[k] - a[k]);
-    let ap: [f64; 3] = std::array::from_fn(|k| p[k] - a[k]);
-    let l2 = ab.iter().map(|x| x * x).sum::<f64>();
+    let (p, a, b) = (DVec3::from(p), DVec3::from(a), DVec3::from(b));
+    let (ab, ap) = (b - a, p - a);
+    let l2 = ab.dot(ab);
     let u = if l2 > 0.0 {
-        (ap.iter().zip(&ab).map(|(x, y)| x * y).sum::<f64>() / l2).clamp(0.0, 1.0)
+        (ap.dot(ab) / l2).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    let d: [f64; 3] = std::array::from_fn(|k| ap[k] - u * ab[k]);
-    d.iter().map(|x| x * x).sum::<f64>().sqrt()
+    (ap - ab * u).length()
 }
 
 #[cfg(test)]

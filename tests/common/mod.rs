@@ -221,15 +221,15 @@ pub fn data() -> std::path::PathBuf {
 /// simple_curve loaded as the CLI loads it (the data set's conventions
 /// applied), with the data-set head and platform, placed as the original
 /// software did (z + 40.5 mm).
-pub fn simple_curve_job() -> maamplan::job::Job {
+pub fn simple_curve_job() -> maamplan::job::LoadedJob {
     simple_curve_job_tilted(None)
 }
 
 /// [`simple_curve_job`] with every nozzle direction rotated by `tilt_deg`
 /// about x first (as `--tilt`).
-pub fn simple_curve_job_tilted(tilt_deg: Option<f64>) -> maamplan::job::Job {
+pub fn simple_curve_job_tilted(tilt_deg: Option<f64>) -> maamplan::job::LoadedJob {
     let d = data();
-    maamplan::job::Job::load(&maamplan::job::JobSpec {
+    maamplan::job::LoadedJob::load(&maamplan::job::JobSpec {
         toolpath: Some(d.join("simple_curve")),
         head: Some(d.join("extruderHead.obj")),
         platform: Some(d.join("printingPlatform.obj")),
@@ -251,7 +251,7 @@ pub fn simple_curve() -> (Toolpath, Scene) {
 }
 
 /// The embedded default job and its scene.
-pub fn default_scene() -> (maamplan::default_job::Job, Scene) {
+pub fn default_scene() -> (maamplan::default_job::JobInputs, Scene) {
     let job = maamplan::default_job::job();
     let scene = Scene::build(
         &job.toolpath,
@@ -561,8 +561,8 @@ pub fn plan_scene(
 
 /// simple_curve ([`simple_curve_job`]) planned once per test binary with
 /// the default machine and options on the cpu backend.
-pub fn simple_curve_plan() -> &'static (maamplan::job::Job, Plan) {
-    static PLAN: OnceLock<(maamplan::job::Job, Plan)> = OnceLock::new();
+pub fn simple_curve_plan() -> &'static (maamplan::job::LoadedJob, Plan) {
+    static PLAN: OnceLock<(maamplan::job::LoadedJob, Plan)> = OnceLock::new();
     PLAN.get_or_init(|| {
         let job = simple_curve_job();
         let p = plan_cpu(
@@ -577,8 +577,8 @@ pub fn simple_curve_plan() -> &'static (maamplan::job::Job, Plan) {
 
 /// The embedded default job ([`default_scene`]) planned once per test
 /// binary with the default machine and options on the cpu backend.
-pub fn default_plan() -> &'static (maamplan::default_job::Job, Scene, Plan) {
-    static PLAN: OnceLock<(maamplan::default_job::Job, Scene, Plan)> = OnceLock::new();
+pub fn default_plan() -> &'static (maamplan::default_job::JobInputs, Scene, Plan) {
+    static PLAN: OnceLock<(maamplan::default_job::JobInputs, Scene, Plan)> = OnceLock::new();
     PLAN.get_or_init(|| {
         let (job, scene) = default_scene();
         let p = plan_cpu(
@@ -601,7 +601,7 @@ pub fn unit(v: [f64; 3]) -> [f32; 3] {
 /// `head.obj` and `platform.obj`. Returns the toolpath folder.
 pub fn write_job(dir: &Path, toolpath: &Toolpath, head: &Mesh, platform: &Mesh) -> PathBuf {
     use maamplan::io::output::write_folder_atomic;
-    use maamplan::io::toolpath::{mesh_obj, toolpath_files};
+    use maamplan::io::toolpath_folder::{mesh_obj, toolpath_files};
     let tp = dir.join("tp");
     write_folder_atomic(&tp, &toolpath_files(toolpath)).unwrap();
     std::fs::write(dir.join("head.obj"), mesh_obj(head)).unwrap();

@@ -1,11 +1,13 @@
-//! Toolpaths: a folder in the zhang2021 layout (`waypoint/<k>.txt` and
-//! `layer/<k>.obj`, sorted naturally) or a single waypoint file.
+//! Toolpath folders in the zhang2021 layout (`waypoint/<k>.txt` and
+//! `layer/<k>.obj`, sorted naturally), read (or a single waypoint file)
+//! and written ([`toolpath_files`]); [`crate::toolpath`] is what they hold.
 //!
 //! A waypoint line is `px py pz nx ny nz` (spaces or commas); blank lines
 //! and lines starting with `#` are skipped. Normals are normalised.
 
 use super::mesh::load_mesh;
 use super::number::parse_f32;
+use super::output::FolderFile;
 use super::{read_to_string, InputError, Placement};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
 use rayon::prelude::*;
@@ -216,7 +218,7 @@ pub fn natural_key(name: &str) -> (u64, String) {
 /// for layers with a surface, `layer/<name>.obj`. Numbers are written in
 /// their shortest round-trip form, so reading the folder back gives the
 /// same values.
-pub fn toolpath_files(tp: &Toolpath) -> Vec<(PathBuf, Vec<u8>)> {
+pub fn toolpath_files(tp: &Toolpath) -> Vec<FolderFile> {
     use std::fmt::Write;
     let mut out = Vec::new();
     for l in &tp.layers {
