@@ -1,4 +1,5 @@
-//! How much to extrude (paper 000, Eq. 1: `ΔE = k · H · W · L`), with the
+//! Stage 5, extrusion: how much to extrude (paper 000, Eq. 1:
+//! `ΔE = k · H · W · L`), summed along each layer's beads, with the
 //! layer height `H` measured per waypoint the way the data set's original
 //! software does: the distance from the waypoint to the platform and to
 //! the surfaces of the previous [`LOOKBACK`] layers, whichever is nearest.
@@ -13,7 +14,10 @@
 //! nearest triangle, and the cut of the tree it stopped at, with bounds
 //! that hold a bead away: [`Carry`]).
 
+use super::graph::Section;
+use super::setup::{distance, Setup};
 use crate::geometry::point_triangle_distance::point_triangle_distance;
+use crate::kinematics::round_written;
 use crate::scene::slab::{oct_decode, unpack_snorm2x16};
 use crate::scene::{bvh, cutoff, GpuPartNode, Scene};
 use rayon::prelude::*;
@@ -29,6 +33,50 @@ pub struct Height {
     /// Nothing below was within the clamp's range (or it was closer than
     /// its floor): the height is the clamp's bound, not a measurement.
     pub clamped: bool,
+}
+
+/// Stage 5's result: per waypoint, its layer height and its E.
+pub(super) struct Extrusion {
+    /// Layer height of each waypoint.
+    pub heights: Vec<Height>,
+    /// Extruder position at each waypoint (mm of filament, absolute within
+    /// the layer, as written); 0 where no section visits it.
+    pub e: Vec<f64>,
+}
+
+/// Stage 5: every waypoint's layer height, within 0.05 to 4 times the
+/// machine's default, and E along the beads the `sections` print
+/// (paper 000, Eq. 1), from 0 at the start of each layer.
+pub(super) fn extrude(setup: &Setup, sections: &[Section]) -> Extrusion {
+    let (m, toolpath) = (setup.machine, setup.toolpath);
+    let ex = &m.extrusion;
+    let d = ex.default_height;
+    let heights = layer_heights(
+        setup.scene,
+        &toolpath.pos,
+        &toolpath.layer_of,
+        &toolpath.layer_start,
+        [0.05 * d, 4.0 * d],
+    );
+    let mut e_at = vec![0.0; toolpath.pos.len()];
+    let mut e = 0.0;
+    let mut layer = usize::MAX;
+    for sec in sections {
+        let r = &sec.waypoints;
+        let tool = m.tool_for(toolpath.layer_is_support[toolpath.layer_of[r.start]]);
+        for (k, g) in r.clone().enumerate() {
+            if toolpath.layer_of[g] != layer {
+                layer = toolpath.layer_of[g];
+                e = 0.0;
+            } else if k > 0 && !sec.breaks[k] {
+                let h = 0.5 * (heights[g - 1].h + heights[g].h);
+                let len = distance(toolpath.pos[g - 1], toolpath.pos[g]);
+                e += tool.extrusion * ex.k * h * ex.width * len;
+            }
+            e_at[g] = round_written(e);
+        }
+    }
+    Extrusion { heights, e: e_at }
 }
 
 /// Layer heights of every waypoint (`pos` in print order, `layer_of` its
