@@ -20,6 +20,7 @@ use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::kinematics::round_written;
 use crate::scene::slab::{oct_decode, unpack_snorm2x16};
 use crate::scene::{bvh, cutoff, GpuPartNode, Scene};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 /// Layers looked back for the surface a waypoint rests on.
@@ -239,9 +240,9 @@ impl Carry {
     fn moved_to(&self, p: [f64; 3], layer: usize) -> Option<f64> {
         match self.last {
             Some((q, l)) if l == layer && 2 * self.cut.len() <= 3 * self.from_root + 32 => {
-                let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
+                let d = DVec3::from(p).distance(DVec3::from(q));
                 // (Rounded up for the sums and the square root.)
-                Some((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * (1.0 + 1e-12) + 1e-12)
+                Some(d * (1.0 + 1e-12) + 1e-12)
             }
             _ => None,
         }
@@ -375,22 +376,20 @@ impl<'b> Walk<'b> {
 /// patches of the layers before; the spheres of those patches reach it,
 /// their slabs do not.
 fn distance_bound(p: [f64; 3], node: &GpuPartNode, slab: &Slab, best: f64) -> f64 {
-    let c = node.center.map(|x| x as f64);
-    let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+    let d = DVec3::from(p) - Vec3::from(node.center).as_dvec3();
     let r = node.radius as f64;
-    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     // (No shortcut past the square root when the sphere clearly lies
     // beyond `best`: the bound is carried to the next waypoint, where
     // the true one saves a search.)
-    let sphere = d2.sqrt() - r;
+    let sphere = d.length() - r;
     if sphere >= best {
         return sphere;
     }
     let [lo, hi] = slab.range;
-    let n = slab.normal.map(|x| x as f64);
+    let n = Vec3::from(slab.normal).as_dvec3();
     // `n` is unit up to f32 rounding, and a millionth of the node's reach
     // covers that and the rounding here.
-    let along = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    let along = n.dot(d);
     let slab = (along - hi as f64 * r).max(lo as f64 * r - along);
     sphere.max(slab - 1e-6 * (r + sphere.abs()))
 }

@@ -8,6 +8,7 @@ use super::smooth::{self, Smoothing};
 use super::{singular, PlanOptions, Stage, StageName};
 use crate::kinematics::{Machine, Rotary};
 use crate::toolpath::Toolpath;
+use glam::Vec3;
 use std::ops::Range;
 use std::time::Instant;
 
@@ -75,9 +76,8 @@ impl Prepared {
         let mut layer_of = Vec::with_capacity(n_wp);
         for (k, w) in toolpath.iter() {
             pos.push(w.pos.map(|x| x as f64));
-            let d = w.dir.map(|x| x as f64);
-            let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-            input_dirs.push(d.map(|x| x / l));
+            let d = Vec3::from(w.dir).as_dvec3();
+            input_dirs.push((d / d.length()).to_array());
             layer_of.push(k);
         }
         let runs = runs(toolpath, opts.jump);

@@ -12,6 +12,7 @@ use super::{singular, PlanError, PlannedWaypoint, Skip};
 use crate::kinematics::{ik_angles, orientation, wrap, Axes, Machine};
 use crate::prove::{MoveSpec, Prover};
 use crate::scene::cutoff;
+use glam::DVec3;
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -221,10 +222,8 @@ fn measure_orientations(setup: &Setup, waypoints: &[PlannedWaypoint], out: &mut 
         .zip(&setup.toolpath.input_dirs)
         .filter(|(w, _)| w.skipped.is_none())
         .map(|(w, n)| {
-            (w.n[0] * n[0] + w.n[1] * n[1] + w.n[2] * n[2])
-                .clamp(-1.0, 1.0)
-                .acos()
-                .to_degrees()
+            let cos = DVec3::from(w.n).dot(DVec3::from(*n));
+            cos.clamp(-1.0, 1.0).acos().to_degrees()
         })
         .collect();
     out.max_deviation_deg = deviation.iter().copied().fold(0.0, f64::max);

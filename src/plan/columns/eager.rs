@@ -9,6 +9,7 @@ use super::Columns;
 use crate::kinematics::{ik_angles, orientation};
 use crate::plan::{candidates, PlanError};
 use crate::prove::Prover;
+use glam::DVec3;
 use std::ops::Range;
 
 impl Columns<'_> {
@@ -75,20 +76,31 @@ impl Columns<'_> {
         prover: &Prover,
         open: &[usize],
     ) -> Result<(), PlanError> {
-        let rot = self.setup.machine.rotary;
         let mut open = open.to_vec();
-        // Rounds after the first, widened 10 % each.
+        self.wider_rounds(prover, &mut open)?;
+        // Last resort before giving a waypoint up.
+        if !open.is_empty() {
+            self.every_reachable(prover, &mut open)?;
+        }
+        Ok(())
+    }
+
+    /// The rounds of variants after the first, widened 10 % each, until
+    /// every waypoint of `open` has a live configuration or the sampling
+    /// is exhausted.
+    fn wider_rounds(&mut self, prover: &Prover, open: &mut Vec<usize>) -> Result<(), PlanError> {
+        let (rot, opts) = (self.setup.machine.rotary, self.setup.opts);
         let mut round = 1u32;
         while !open.is_empty() {
             let mut items = Vec::new();
-            for &g in &open {
+            for &g in open.iter() {
                 let sampled = candidates::round(
                     self.centre[g],
                     0,
                     round,
-                    self.setup.opts.sampling,
-                    self.setup.opts.beta,
-                    self.setup.opts.alpha,
+                    opts.sampling,
+                    opts.beta,
+                    opts.alpha,
                 );
                 for d in sampled {
                     items.push((g, ik_angles(rot, d)));
@@ -97,41 +109,40 @@ impl Columns<'_> {
             if items.is_empty() {
                 break; // Sampling exhausted.
             }
-            self.offer_to_open(prover, &items, &mut open)?;
+            self.offer_to_open(prover, &items, open)?;
             round += 1;
         }
-        // Last resort before giving a waypoint up: every reachable
-        // orientation, nearest first, in shells of widening angle.
-        if !open.is_empty() {
-            let m = self.setup.machine;
-            let top = m.tilt.min.abs().max(m.tilt.max.abs()).to_radians();
-            let grid = candidates::reachable_directions(top, self.setup.opts.exhaustive_step);
-            let dirs: Vec<[f64; 3]> = grid
-                .iter()
-                .map(|p| orientation(rot, p[0].0, p[0].1))
-                .collect();
-            let shell = 30f64.to_radians();
-            let mut lo = 0.0;
-            while !open.is_empty() && lo <= std::f64::consts::PI {
-                let hi = lo + shell;
-                let mut items = Vec::new();
-                for &g in &open {
-                    let c = self.centre[g];
-                    let mut near: Vec<(f64, usize)> = dirs
-                        .iter()
-                        .enumerate()
-                        .map(|(k, d)| {
-                            let cos = (d[0] * c[0] + d[1] * c[1] + d[2] * c[2]).clamp(-1.0, 1.0);
-                            (cos.acos(), k)
-                        })
-                        .filter(|&(a, _)| a >= lo && a < hi)
-                        .collect();
-                    near.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
-                }
-                self.offer_to_open(prover, &items, &mut open)?;
-                lo = hi;
+        Ok(())
+    }
+
+    /// Every orientation the machine can reach, for the waypoints of
+    /// `open`: nearest first, in shells of widening angle.
+    fn every_reachable(&mut self, prover: &Prover, open: &mut Vec<usize>) -> Result<(), PlanError> {
+        let m = self.setup.machine;
+        let top = m.tilt.min.abs().max(m.tilt.max.abs()).to_radians();
+        let grid = candidates::reachable_directions(top, self.setup.opts.exhaustive_step);
+        let dirs: Vec<DVec3> = grid
+            .iter()
+            .map(|p| DVec3::from(orientation(m.rotary, p[0].0, p[0].1)))
+            .collect();
+        let shell = 30f64.to_radians();
+        let mut lo = 0.0;
+        while !open.is_empty() && lo <= std::f64::consts::PI {
+            let hi = lo + shell;
+            let mut items = Vec::new();
+            for &g in open.iter() {
+                let c = DVec3::from(self.centre[g]);
+                let mut near: Vec<(f64, usize)> = dirs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, d)| (d.dot(c).clamp(-1.0, 1.0).acos(), k))
+                    .filter(|&(a, _)| a >= lo && a < hi)
+                    .collect();
+                near.sort_by(|a, b| a.0.total_cmp(&b.0));
+                items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
             }
+            self.offer_to_open(prover, &items, open)?;
+            lo = hi;
         }
         Ok(())
     }

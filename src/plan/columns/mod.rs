@@ -690,6 +690,7 @@ mod tests {
     use crate::collide::{Backend, CollideError};
     use crate::kinematics::Machine;
     use crate::scene::{Query, Scene};
+    use glam::Vec3;
 
     /// The default job, prepared with the default settings, to plan over
     /// one backend or another.
@@ -728,9 +729,8 @@ mod tests {
     /// The angle (radians) between a head axis and the default job's
     /// shell normal at its tip (the shells are spheres about the origin).
     fn off_normal(tip: [f32; 3], axis: [f32; 3]) -> f32 {
-        let r = (tip[0] * tip[0] + tip[1] * tip[1] + tip[2] * tip[2]).sqrt();
-        let cos = (axis[0] * tip[0] + axis[1] * tip[1] + axis[2] * tip[2]) / r;
-        cos.clamp(-1.0, 1.0).acos()
+        let (tip, axis) = (Vec3::from(tip), Vec3::from(axis));
+        (axis.dot(tip) / tip.length()).clamp(-1.0, 1.0).acos()
     }
 
     /// A backend for the default job where a pose whose head axis lies

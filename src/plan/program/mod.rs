@@ -21,11 +21,12 @@ mod assembly;
 pub use assembly::{failing_steps, Assembly};
 
 use super::graph::Route;
-use super::setup::Setup;
+use super::setup::{distance, Setup};
 use super::PlanError;
 use crate::kinematics::{round_written, Axes, Machine, ToolSettings};
 use crate::prove::{MoveSpec, Prover};
 use crate::scene::Scene;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 /// What a move is for (the G-code writer and the reports use it).
@@ -261,7 +262,7 @@ pub fn move_seconds(m: &Machine, from: &Axes, to: &Axes, feed: f64, de: f64) -> 
         pa = pa.map(round_written);
         pb = pb.map(round_written);
     }
-    let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]).hypot(pb[2] - pa[2]);
+    let len = distance(pb, pa);
     [
         len / feed,
         (to.xyz[0] - from.xyz[0]).abs() / m.x.speed,
@@ -276,10 +277,9 @@ pub fn move_seconds(m: &Machine, from: &Axes, to: &Axes, feed: f64, de: f64) -> 
 
 /// The point `approach` mm back along the nozzle from the waypoint at `a`.
 pub fn approach_point(m: &Machine, a: &Axes) -> Axes {
-    let p = m.tip(a);
-    let n = crate::kinematics::orientation(m.rotary, a.tilt, a.c);
-    let d = m.travel.approach;
-    let q = [p[0] + d * n[0], p[1] + d * n[1], p[2] + d * n[2]];
+    let p = DVec3::from(m.tip(a));
+    let n = DVec3::from(crate::kinematics::orientation(m.rotary, a.tilt, a.c));
+    let q = (p + m.travel.approach * n).to_array();
     let lin =
         crate::kinematics::linear_axes(m.configuration, m.rotary, m.offsets(), q, a.tilt, a.c);
     Axes {
@@ -400,7 +400,7 @@ fn sphere_z(scene: &Scene, margin: f64) -> f64 {
         .map(|t| {
             [t.v0, t.v1, t.v2]
                 .iter()
-                .map(|v| v.iter().map(|&x| (x as f64) * (x as f64)).sum::<f64>())
+                .map(|&v| Vec3::from(v).as_dvec3().length_squared())
                 .fold(0.0, f64::max)
         })
         .reduce(|| 0.0, f64::max);
