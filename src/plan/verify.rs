@@ -448,19 +448,16 @@ pub fn input_axes(
 mod tests {
     use super::super::program::MoveKind;
     use super::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
 
     /// The pruned search finds what sampling every extruding move finds,
     /// and ignores moves that do not extrude however far they bow.
     #[test]
     fn the_largest_tip_deviation_matches_sampling_every_move() {
         let m = Machine::default();
-        let mut h = 0x2545_f491_4f6c_dd1du64;
-        let mut rnd = || {
-            h ^= h << 13;
-            h ^= h >> 7;
-            h ^= h << 17;
-            (h >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = ChaCha8Rng::seed_from_u64(0x2545_f491_4f6c_dd1d);
+        let mut rnd = || rng.random::<f64>();
         let mut moves = Vec::new();
         for k in 0..20_000 {
             let p = [

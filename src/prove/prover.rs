@@ -701,9 +701,30 @@ fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64
 mod tests {
     use super::*;
     use crate::kinematics::Machine;
+    use crate::scene::cutoff;
 
     fn axes(m: &Machine, p: [f64; 3], tilt_deg: f64, c_deg: f64) -> Axes {
         m.axes_at(p, (tilt_deg.to_radians(), c_deg.to_radians()))
+    }
+
+    /// Seven waypoints half a millimetre apart, C turning 2° a step.
+    fn chain(m: &Machine) -> Vec<Axes> {
+        (0..7)
+            .map(|k| axes(m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
+            .collect()
+    }
+
+    /// The beads printed along `way`, each with the material of the
+    /// waypoints before its start.
+    fn beads(way: &[Axes]) -> Vec<MoveSpec> {
+        way.windows(2)
+            .enumerate()
+            .map(|(k, w)| MoveSpec {
+                from: w[0],
+                to: w[1],
+                cutoff: cutoff(k),
+            })
+            .collect()
     }
 
     /// A backend that answers by the query alone: a hit when it asks for
@@ -742,18 +763,8 @@ mod tests {
         let m = Machine::default();
         let fake = profile(f32::INFINITY, f32::INFINITY);
         let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
-        let way: Vec<Axes> = (0..7)
-            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
-            .collect();
-        let beads: Vec<MoveSpec> = way
-            .windows(2)
-            .enumerate()
-            .map(|(k, w)| MoveSpec {
-                from: w[0],
-                to: w[1],
-                cutoff: k as u32 + 1,
-            })
-            .collect();
+        let way = chain(&m);
+        let beads = beads(&way);
         let intervals: usize = beads
             .iter()
             .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)))
@@ -781,10 +792,8 @@ mod tests {
         let m = Machine::default();
         let fake = profile(f32::INFINITY, f32::INFINITY);
         let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
-        let way: Vec<Axes> = (0..7)
-            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
-            .collect();
-        let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], k as u32 + 1)).collect();
+        let way = chain(&m);
+        let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], cutoff(k))).collect();
         let needs: Vec<(f64, f64)> = (0..way.len())
             .map(|k| {
                 let near: Vec<Axes> = [k.wrapping_sub(1), k + 1]
@@ -803,15 +812,7 @@ mod tests {
             .all(|&h| !h));
         let before = prover.queries() as usize;
         assert_eq!(before, way.len());
-        let beads: Vec<MoveSpec> = way
-            .windows(2)
-            .enumerate()
-            .map(|(k, w)| MoveSpec {
-                from: w[0],
-                to: w[1],
-                cutoff: k as u32 + 1,
-            })
-            .collect();
+        let beads = beads(&way);
         let interior: usize = beads
             .iter()
             .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)) - 1)
