@@ -153,7 +153,7 @@ struct Below<'a> {
 /// A node's slab as [`distance_bound`] reads it: the unit normal and the
 /// interval (in units of the node's radius), decoded from the node's
 /// words once for the stage instead of at every visit (the decode's
-/// square root and division were the walk's slowest steps).
+/// square root and division are dearer than the rest of a visit).
 #[derive(Clone, Copy)]
 struct Slab {
     normal: [f32; 3],

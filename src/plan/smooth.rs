@@ -6,9 +6,9 @@ use glam::DVec3;
 
 type N = [f64; 3];
 
-/// `v` scaled to unit length (dividing by the length, as the smoothed
-/// orientations always were, not multiplying by its reciprocal); the zero
-/// vector stays as it is.
+/// `v` scaled to unit length, the zero vector left as it is. It divides
+/// by the length rather than multiplying by its reciprocal as
+/// `normalize()` does: the planned orientations take its last bits.
 fn unit(v: DVec3) -> DVec3 {
     let l = v.length();
     if l > 0.0 {

@@ -371,13 +371,13 @@ pub(super) fn assemble(
             }
         })
         .collect();
-    let asm = Assembly {
+    let assembly = Assembly {
         machine: m,
         tip_tolerance: m.tip_tolerance,
         sphere_z: sphere_z(setup.scene, prover.margin),
         reader: &toolpath.layer_reader,
     };
-    let (program, stuck) = asm.build(&sections, prover)?;
+    let (program, stuck) = assembly.build(&sections, prover)?;
     let warning = (!stuck.is_empty()).then(|| {
         format!(
             "{} move group(s) of the program could not be proven free even at the highest travel: see colliding_edges",
