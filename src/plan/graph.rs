@@ -327,28 +327,12 @@ impl<'a> Search<'a> {
         let per: Vec<Work> = open
             .par_iter()
             .map(|&s| {
-                let mut w = Work::default();
-                w.asks = self.path_asks(s, prover);
-                let (r, p) = (&self.sections[s], &self.paths[s]);
-                let status = |k: usize| self.columns.nodes[r.start + k][p.nodes[k]].status;
-                let known = &self.edges[s];
-                for k in 1..r.len() {
-                    if p.breaks[k] {
-                        continue;
-                    }
-                    let key = (k, p.nodes[k - 1], p.nodes[k]);
-                    if known.proven.contains(&key) || known.blocked.contains(&key) {
-                        continue;
-                    }
-                    if status(k - 1) != Status::Free || status(k) != Status::Free {
-                        if w.waiting.is_empty() {
-                            w.waiting.push(s);
-                        }
-                        continue;
-                    }
-                    w.edges.push((s, key, r.start + k));
+                let (edges, waiting) = self.path_edges(s);
+                Work {
+                    asks: self.path_asks(s, prover),
+                    edges,
+                    waiting: if waiting { vec![s] } else { Vec::new() },
                 }
-                w
             })
             .collect();
         let mut all = Work::default();
@@ -358,6 +342,32 @@ impl<'a> Search<'a> {
             all.waiting.extend(w.waiting);
         }
         all
+    }
+
+    /// Section `s`'s printing edges between nodes known free that are not
+    /// proven yet, and whether it has edges left for a later round (an
+    /// end not known yet).
+    fn path_edges(&self, s: usize) -> (Vec<Edge>, bool) {
+        let (r, p) = (&self.sections[s], &self.paths[s]);
+        let status = |k: usize| self.columns.nodes[r.start + k][p.nodes[k]].status;
+        let known = &self.edges[s];
+        let mut edges = Vec::new();
+        let mut waiting = false;
+        for k in 1..r.len() {
+            if p.breaks[k] {
+                continue;
+            }
+            let key = (k, p.nodes[k - 1], p.nodes[k]);
+            if known.proven.contains(&key) || known.blocked.contains(&key) {
+                continue;
+            }
+            if status(k - 1) != Status::Free || status(k) != Status::Free {
+                waiting = true;
+                continue;
+            }
+            edges.push((s, key, r.start + k));
+        }
+        (edges, waiting)
     }
 
     /// Section `s`'s unchecked path nodes (and, in a column that failed
