@@ -69,7 +69,7 @@ impl Reporter {
     pub fn on(&self, p: Progress) {
         use std::sync::atomic::Ordering;
         match p {
-            Progress::Stage(name) => self.begin(name),
+            Progress::Stage(name) => self.begin(name.as_str()),
             Progress::Queries { done, total } => {
                 if !self.counting.swap(true, Ordering::Relaxed) {
                     self.bar.set_style(bar_style());

@@ -6,6 +6,7 @@
 //! orientation the machine can reach, at most 5° apart.
 
 use super::singular::is_singular;
+use glam::DVec3;
 
 type N = [f64; 3];
 
@@ -34,28 +35,16 @@ fn unit(h: u64) -> f64 {
 
 /// The direction at polar angle `theta` and azimuth `phi` around `n`.
 pub fn around(n: N, theta: f64, phi: f64) -> N {
-    let helper = if n[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let u = {
-        let c = [
-            n[1] * helper[2] - n[2] * helper[1],
-            n[2] * helper[0] - n[0] * helper[2],
-            n[0] * helper[1] - n[1] * helper[0],
-        ];
-        let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-        [c[0] / l, c[1] / l, c[2] / l]
-    };
-    let v = [
-        n[1] * u[2] - n[2] * u[1],
-        n[2] * u[0] - n[0] * u[2],
-        n[0] * u[1] - n[1] * u[0],
-    ];
+    let n = DVec3::from(n);
+    let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    // Divided by the length, not normalize()'s multiplication by its
+    // reciprocal: the variants' last bits are the plans'.
+    let c = n.cross(helper);
+    let u = c / c.length();
+    let v = n.cross(u);
     let (st, ct) = theta.sin_cos();
     let (sp, cp) = phi.sin_cos();
-    std::array::from_fn(|k| ct * n[k] + st * (cp * u[k] + sp * v[k]))
+    (ct * n + st * (cp * u + sp * v)).to_array()
 }
 
 /// Round `round` of candidate orientations for waypoint `seed` around `n`:
@@ -129,15 +118,15 @@ mod tests {
     fn reachable_directions_leave_no_gap_wider_than_the_step() {
         let step = 5f64.to_radians();
         let grid = reachable_directions(90f64.to_radians(), step);
-        let dirs: Vec<N> = grid
+        let dirs: Vec<DVec3> = grid
             .iter()
             .map(|&[(t, c), mirror]| {
                 // Both members of a pair point the same way.
                 let (a, b) = (
-                    orientation(Rotary::BC, t, c),
-                    orientation(Rotary::BC, mirror.0, mirror.1),
+                    DVec3::from(orientation(Rotary::BC, t, c)),
+                    DVec3::from(orientation(Rotary::BC, mirror.0, mirror.1)),
                 );
-                assert!((a[0] - b[0]).abs() + (a[1] - b[1]).abs() + (a[2] - b[2]).abs() < 1e-9);
+                assert!((a - b).abs().element_sum() < 1e-9);
                 a
             })
             .collect();
@@ -149,14 +138,10 @@ mod tests {
             let z = unit(h);
             let phi = unit(splitmix(h ^ 7)) * std::f64::consts::TAU;
             let r = (1.0 - z * z).sqrt();
-            let d = [r * phi.cos(), r * phi.sin(), z];
+            let d = DVec3::new(r * phi.cos(), r * phi.sin(), z);
             let best = dirs
                 .iter()
-                .map(|g| {
-                    (g[0] * d[0] + g[1] * d[1] + g[2] * d[2])
-                        .clamp(-1.0, 1.0)
-                        .acos()
-                })
+                .map(|g| g.dot(d).clamp(-1.0, 1.0).acos())
                 .fold(f64::INFINITY, f64::min);
             assert!(best <= step, "gap {}°", best.to_degrees());
         }

@@ -117,7 +117,7 @@ impl CostModel {
     }
 
     /// Cost of printing `a → b` over a bead of length `len` (degrees).
-    pub fn print(&self, len: f64, a: &Axes, b: &Axes) -> f64 {
+    pub fn print_cost(&self, len: f64, a: &Axes, b: &Axes) -> f64 {
         let r = self.rotation_deg(a, b);
         let d = self.dwell(len, a, b);
         if d > 0.0 {
@@ -129,7 +129,7 @@ impl CostModel {
 
     /// Cost of a break from `a` to `b` across a bead of length `len`
     /// (degrees).
-    pub fn brk(&self, len: f64, a: &Axes, b: &Axes) -> f64 {
+    pub fn break_cost(&self, len: f64, a: &Axes, b: &Axes) -> f64 {
         let gap = len / self.tip_speed[0];
         self.rotation_deg(a, b) + self.omega * (self.break_seconds + self.dwell_weight * gap)
     }
@@ -147,9 +147,9 @@ mod tests {
         let small = m.axes_at([10.5, 0.0, 45.0], (0.3, 0.01));
         let swing = m.axes_at([10.5, 0.0, 45.0], (0.3, 2.0));
         // A small rotation is its J.
-        assert!((cm.print(0.5, &a, &small) - cm.rotation_deg(&a, &small)).abs() < 1e-9);
+        assert!((cm.print_cost(0.5, &a, &small) - cm.rotation_deg(&a, &small)).abs() < 1e-9);
         // 115° of C over half a millimetre: the extruder dwells ~8 s.
         assert!(cm.dwell(0.5, &a, &swing) > 7.0);
-        assert!(cm.print(0.5, &a, &swing) > cm.brk(0.5, &a, &swing));
+        assert!(cm.print_cost(0.5, &a, &swing) > cm.break_cost(0.5, &a, &swing));
     }
 }

@@ -1,4 +1,5 @@
-//! How much to extrude (paper 000, Eq. 1: `ΔE = k · H · W · L`), with the
+//! Stage 5, extrusion: how much to extrude (paper 000, Eq. 1:
+//! `ΔE = k · H · W · L`), summed along each layer's beads, with the
 //! layer height `H` measured per waypoint the way the data set's original
 //! software does: the distance from the waypoint to the platform and to
 //! the surfaces of the previous [`LOOKBACK`] layers, whichever is nearest.
@@ -13,9 +14,13 @@
 //! nearest triangle, and the cut of the tree it stopped at, with bounds
 //! that hold a bead away: [`Carry`]).
 
+use super::graph::Section;
+use super::setup::{distance, Setup};
 use crate::geometry::point_triangle_distance::point_triangle_distance;
+use crate::kinematics::round_written;
 use crate::scene::slab::{oct_decode, unpack_snorm2x16};
 use crate::scene::{bvh, cutoff, GpuPartNode, Scene};
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 /// Layers looked back for the surface a waypoint rests on.
@@ -29,6 +34,50 @@ pub struct Height {
     /// Nothing below was within the clamp's range (or it was closer than
     /// its floor): the height is the clamp's bound, not a measurement.
     pub clamped: bool,
+}
+
+/// Stage 5's result: per waypoint, its layer height and its E.
+pub(super) struct Extrusion {
+    /// Layer height of each waypoint.
+    pub heights: Vec<Height>,
+    /// Extruder position at each waypoint (mm of filament, absolute within
+    /// the layer, as written); 0 where no section visits it.
+    pub e: Vec<f64>,
+}
+
+/// Stage 5: every waypoint's layer height, within 0.05 to 4 times the
+/// machine's default, and E along the beads the `sections` print
+/// (paper 000, Eq. 1), from 0 at the start of each layer.
+pub(super) fn extrude(setup: &Setup, sections: &[Section]) -> Extrusion {
+    let (m, toolpath) = (setup.machine, setup.toolpath);
+    let ex = &m.extrusion;
+    let d = ex.default_height;
+    let heights = layer_heights(
+        setup.scene,
+        &toolpath.pos,
+        &toolpath.layer_of,
+        &toolpath.layer_start,
+        [0.05 * d, 4.0 * d],
+    );
+    let mut e_at = vec![0.0; toolpath.pos.len()];
+    let mut e = 0.0;
+    let mut layer = usize::MAX;
+    for sec in sections {
+        let r = &sec.waypoints;
+        let tool = m.tool_for(toolpath.layer_is_support[toolpath.layer_of[r.start]]);
+        for (k, g) in r.clone().enumerate() {
+            if toolpath.layer_of[g] != layer {
+                layer = toolpath.layer_of[g];
+                e = 0.0;
+            } else if k > 0 && !sec.breaks[k] {
+                let h = 0.5 * (heights[g - 1].h + heights[g].h);
+                let len = distance(toolpath.pos[g - 1], toolpath.pos[g]);
+                e += tool.extrusion * ex.k * h * ex.width * len;
+            }
+            e_at[g] = round_written(e);
+        }
+    }
+    Extrusion { heights, e: e_at }
 }
 
 /// Layer heights of every waypoint (`pos` in print order, `layer_of` its
@@ -104,7 +153,7 @@ struct Below<'a> {
 /// A node's slab as [`distance_bound`] reads it: the unit normal and the
 /// interval (in units of the node's radius), decoded from the node's
 /// words once for the stage instead of at every visit (the decode's
-/// square root and division were the walk's slowest steps).
+/// square root and division are dearer than the rest of a visit).
 #[derive(Clone, Copy)]
 struct Slab {
     normal: [f32; 3],
@@ -133,120 +182,188 @@ impl<'a> Below<'a> {
 }
 
 impl Below<'_> {
-    /// [`Below::nearest`]'s distance for `p` (layer `layer`, at most
-    /// `limit`), searched from the cut `carry` kept of the worker's last
-    /// search when it was of the same layer. Distances to a point are
-    /// 1-Lipschitz, so a bound `b` found at the last point `q` is at least
-    /// `b − |p − q|` here: a cut node whose carried bound still reaches
-    /// the best distance so far costs a comparison, and only the others
-    /// are searched again, each from where the last search left it (a
-    /// layer's waypoints follow each other a bead apart, and the patches
-    /// under them are the same few leaves). The minimum is the one a
-    /// search from the root finds. As in the cpu collision walk
-    /// ([`crate::collide::frontier`]), a cut only gets finer, so once it
-    /// has grown by half over the last cut found from the root, the search
-    /// starts from the root again.
+    /// The distance from `p` (a waypoint of layer `layer`) to the nearest
+    /// surface it may rest on, at most `limit`, searched from the cut
+    /// `carry` kept of the worker's last search when it was of the same
+    /// layer. Distances to a point are 1-Lipschitz, so a bound `b` found
+    /// at the last point `q` is at least `b − |p − q|` here: a cut node
+    /// whose carried bound still reaches the best distance so far costs a
+    /// comparison, and only the others are searched again, each from where
+    /// the last search left it (a layer's waypoints follow each other a
+    /// bead apart, and the patches under them are the same few leaves).
+    /// The minimum is the one a search from the root finds. As in the cpu
+    /// collision walk ([`crate::collide::cpu::frontier`]), a cut only gets
+    /// finer, so once it has grown by half over the last cut found from
+    /// the root, the search starts from the root again.
     fn nearest_carried(&self, p: [f64; 3], layer: usize, limit: f64, carry: &mut Carry) -> f64 {
-        let scene = self.scene;
-        let first = layer.saturating_sub(self.lookback);
-        let cutoff = cutoff(self.layer_start[layer]);
-        let older = self.layer_start[first] as u32;
-        let wanted = |l: u32| l == u32::MAX || (l as usize >= first && (l as usize) < layer);
-        let v = |a: [f32; 3]| a.map(|x| x as f64);
-        let mut best = limit;
-        let mut nearest = None;
-        if let Some(t) = carry.hint.map(|t| &scene.part_tris[t as usize]) {
-            if t.stamp < cutoff && wanted(t.layer) {
-                let d = point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2));
-                if d < best {
-                    (best, nearest) = (d, carry.hint);
-                }
-            }
-        }
-        // A node's bound at `p`, `None` when nothing below it is of
-        // interest to the layer.
-        let bound = |i: u32, best: f64| {
-            let node = &scene.part_nodes[i as usize];
-            let too_old = node.min_stamp > 0 && self.max_stamp[i as usize] <= older;
-            if node.min_stamp >= cutoff || too_old {
-                return None;
-            }
-            Some(distance_bound(p, node, &self.slabs[i as usize], best))
+        let walk = Walk::new(self, p, layer);
+        let mut nearest = Nearest {
+            distance: limit,
+            triangle: None,
         };
+        if let Some(k) = carry.hint {
+            walk.try_triangle(k, &mut nearest);
+        }
+        let moved = carry.moved_to(p, layer);
         let Carry {
-            last,
-            cut,
-            next,
-            stack,
-            from_root,
-            ..
+            cut, next, stack, ..
         } = carry;
         next.clear();
-        let moved = match *last {
-            Some((q, l)) if l == layer && 2 * cut.len() <= 3 * *from_root + 32 => {
-                let d = [p[0] - q[0], p[1] - q[1], p[2] - q[2]];
-                // (Rounded up for the sums and the square root.)
-                Some((d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() * (1.0 + 1e-12) + 1e-12)
-            }
-            _ => None,
-        };
         let roots: &[(u32, f64)] = if moved.is_some() { cut } else { &[(0, 0.0)] };
         for &(root, carried) in roots {
             if let Some(moved) = moved {
                 let b = carried - moved;
-                if b >= best {
+                if b >= nearest.distance {
                     next.push((root, b));
                     continue;
                 }
             }
-            let Some(b) = bound(root, best) else { continue };
-            stack.push((root, b));
-            // Nearer child popped first; every node left behind goes into
-            // the new cut with its bound.
-            while let Some((i, b)) = stack.pop() {
-                if b >= best {
-                    next.push((i, b));
-                    continue;
-                }
-                let node = &scene.part_nodes[i as usize];
-                match node.leaf_range() {
-                    Some((start, count)) => {
-                        let mut leaf = f64::INFINITY;
-                        for k in start..start + count {
-                            let t = &scene.part_tris[k as usize];
-                            if t.stamp >= cutoff || !wanted(t.layer) {
-                                continue;
-                            }
-                            let d = point_triangle_distance(p, v(t.v0), v(t.v1), v(t.v2));
+            let Some(b) = walk.bound(root, nearest.distance) else {
+                continue;
+            };
+            walk.descend((root, b), &mut nearest, stack, next);
+        }
+        if moved.is_none() {
+            carry.from_root = carry.next.len();
+        }
+        std::mem::swap(&mut carry.cut, &mut carry.next);
+        carry.last = Some((p, layer));
+        carry.hint = nearest.triangle.or(carry.hint);
+        nearest.distance
+    }
+}
+
+impl Carry {
+    /// How far the last search's point lies from `p` (rounded up), when
+    /// its cut can start the search for `p` of `layer`: the same layer,
+    /// and a cut not grown by half over the last one found from the root.
+    fn moved_to(&self, p: [f64; 3], layer: usize) -> Option<f64> {
+        match self.last {
+            Some((q, l)) if l == layer && 2 * self.cut.len() <= 3 * self.from_root + 32 => {
+                let d = DVec3::from(p).distance(DVec3::from(q));
+                // (Rounded up for the sums and the square root.)
+                Some(d * (1.0 + 1e-12) + 1e-12)
+            }
+            _ => None,
+        }
+    }
+}
+
+/// The triangle nearest to the point searched so far, and its distance.
+struct Nearest {
+    distance: f64,
+    triangle: Option<u32>,
+}
+
+/// One search of [`Below::nearest_carried`]: the point, and which of the
+/// scene's material its layer may rest on.
+struct Walk<'b> {
+    below: &'b Below<'b>,
+    p: [f64; 3],
+    /// Material printed before the layer starts has stamps below this.
+    cutoff: u32,
+    /// Subtrees whose stamps all lie at or below this are older than the
+    /// look-back window.
+    older: u32,
+    /// The window's layers: `first..layer`.
+    first: usize,
+    layer: usize,
+}
+
+impl<'b> Walk<'b> {
+    fn new(below: &'b Below<'b>, p: [f64; 3], layer: usize) -> Self {
+        let first = layer.saturating_sub(below.lookback);
+        Walk {
+            below,
+            p,
+            cutoff: cutoff(below.layer_start[layer]),
+            older: below.layer_start[first] as u32,
+            first,
+            layer,
+        }
+    }
+
+    /// Triangle `k`'s distance from the point, when the layer may rest on
+    /// it: the platform (layer `u32::MAX`) or a layer of the window,
+    /// printed before the layer starts.
+    fn triangle(&self, k: u32) -> Option<f64> {
+        let t = &self.below.scene.part_tris[k as usize];
+        let in_window = t.layer == u32::MAX
+            || (t.layer as usize >= self.first && (t.layer as usize) < self.layer);
+        if t.stamp >= self.cutoff || !in_window {
+            return None;
+        }
+        let v = |a: [f32; 3]| a.map(|x| x as f64);
+        Some(point_triangle_distance(self.p, v(t.v0), v(t.v1), v(t.v2)))
+    }
+
+    /// Triangle `k`, taken as the nearest when it is nearer.
+    fn try_triangle(&self, k: u32, nearest: &mut Nearest) -> Option<f64> {
+        let d = self.triangle(k)?;
+        if d < nearest.distance {
+            *nearest = Nearest {
+                distance: d,
+                triangle: Some(k),
+            };
+        }
+        Some(d)
+    }
+
+    /// Node `i`'s bound at the point ([`distance_bound`]), `None` when
+    /// nothing below it is of interest to the layer.
+    fn bound(&self, i: u32, best: f64) -> Option<f64> {
+        let below = self.below;
+        let node = &below.scene.part_nodes[i as usize];
+        let too_old = node.min_stamp > 0 && below.max_stamp[i as usize] <= self.older;
+        if node.min_stamp >= self.cutoff || too_old {
+            return None;
+        }
+        Some(distance_bound(self.p, node, &below.slabs[i as usize], best))
+    }
+
+    /// Search the subtree `(root, its bound)`, nearer child first, for a
+    /// triangle nearer than `nearest`; every node left behind goes into
+    /// `cut` with its bound. `stack` is the search's scratch.
+    fn descend(
+        &self,
+        root: (u32, f64),
+        nearest: &mut Nearest,
+        stack: &mut Vec<(u32, f64)>,
+        cut: &mut Vec<(u32, f64)>,
+    ) {
+        let nodes = &self.below.scene.part_nodes;
+        stack.push(root);
+        while let Some((i, b)) = stack.pop() {
+            if b >= nearest.distance {
+                cut.push((i, b));
+                continue;
+            }
+            let node = &nodes[i as usize];
+            match node.leaf_range() {
+                Some((start, count)) => {
+                    let mut leaf = f64::INFINITY;
+                    for k in start..start + count {
+                        if let Some(d) = self.try_triangle(k, nearest) {
                             leaf = leaf.min(d);
-                            if d < best {
-                                (best, nearest) = (d, Some(k));
-                            }
-                        }
-                        if leaf < f64::INFINITY {
-                            next.push((i, leaf));
                         }
                     }
-                    None => {
-                        let (l, r) = (node.packed, node.packed + 1);
-                        match (bound(l, best), bound(r, best)) {
-                            (Some(x), Some(y)) if y < x => stack.extend([(l, x), (r, y)]),
-                            (Some(x), Some(y)) => stack.extend([(r, y), (l, x)]),
-                            (Some(x), None) => stack.push((l, x)),
-                            (None, Some(y)) => stack.push((r, y)),
-                            (None, None) => {}
-                        }
+                    if leaf < f64::INFINITY {
+                        cut.push((i, leaf));
+                    }
+                }
+                None => {
+                    let best = nearest.distance;
+                    let (l, r) = (node.packed, node.packed + 1);
+                    match (self.bound(l, best), self.bound(r, best)) {
+                        (Some(x), Some(y)) if y < x => stack.extend([(l, x), (r, y)]),
+                        (Some(x), Some(y)) => stack.extend([(r, y), (l, x)]),
+                        (Some(x), None) => stack.push((l, x)),
+                        (None, Some(y)) => stack.push((r, y)),
+                        (None, None) => {}
                     }
                 }
             }
         }
-        if moved.is_none() {
-            *from_root = next.len();
-        }
-        std::mem::swap(cut, next);
-        *last = Some((p, layer));
-        carry.hint = nearest.or(carry.hint);
-        best
     }
 }
 
@@ -259,22 +376,20 @@ impl Below<'_> {
 /// patches of the layers before; the spheres of those patches reach it,
 /// their slabs do not.
 fn distance_bound(p: [f64; 3], node: &GpuPartNode, slab: &Slab, best: f64) -> f64 {
-    let c = node.center.map(|x| x as f64);
-    let d = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
+    let d = DVec3::from(p) - Vec3::from(node.center).as_dvec3();
     let r = node.radius as f64;
-    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
     // (No shortcut past the square root when the sphere clearly lies
     // beyond `best`: the bound is carried to the next waypoint, where
     // the true one saves a search.)
-    let sphere = d2.sqrt() - r;
+    let sphere = d.length() - r;
     if sphere >= best {
         return sphere;
     }
     let [lo, hi] = slab.range;
-    let n = slab.normal.map(|x| x as f64);
+    let n = Vec3::from(slab.normal).as_dvec3();
     // `n` is unit up to f32 rounding, and a millionth of the node's reach
     // covers that and the rounding here.
-    let along = n[0] * d[0] + n[1] * d[1] + n[2] * d[2];
+    let along = n.dot(d);
     let slab = (along - hi as f64 * r).max(lo as f64 * r - along);
     sphere.max(slab - 1e-6 * (r + sphere.abs()))
 }

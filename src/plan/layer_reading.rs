@@ -158,6 +158,22 @@ impl NearestLayer {
 }
 
 #[cfg(test)]
+impl NearestLayer {
+    /// Waypoints given layer by layer, in print order (global indices run
+    /// on from one layer to the next): their positions and their index.
+    pub(crate) fn of_layers(layers: &[&[[f64; 3]]]) -> (Vec<[f64; 3]>, Self) {
+        let pos = layers.concat();
+        let layer_of: Vec<usize> = layers
+            .iter()
+            .enumerate()
+            .flat_map(|(k, l)| std::iter::repeat_n(k, l.len()))
+            .collect();
+        let index = Self::new(&pos, &layer_of);
+        (pos, index)
+    }
+}
+
+#[cfg(test)]
 mod tests {
     use super::*;
 
@@ -177,15 +193,11 @@ mod tests {
 
     #[test]
     fn a_point_read_as_a_later_layer_needs_every_layer_below_it() {
-        // Layers 0 and 1 of two waypoints each, layer 2 of one.
-        let pos = [
-            [0.0, 0.0, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 0.0, 0.3],
-            [1.0, 0.0, 0.3],
-            [0.5, 0.0, 0.6],
-        ];
-        let near = NearestLayer::new(&pos, &[0, 0, 1, 1, 2]);
+        let (_, near) = NearestLayer::of_layers(&[
+            &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]],
+            &[[0.0, 0.0, 0.3], [1.0, 0.0, 0.3]],
+            &[[0.5, 0.0, 0.6]],
+        ]);
         // Reads as layer 1: material of waypoints 0..=1 (stamps 1, 2).
         assert_eq!(near.reader_cutoff([0.9, 0.0, 0.3], 1), 3);
         // Reads as layer 2: layers 0 and 1 (stamps up to 4).
@@ -208,8 +220,8 @@ mod tests {
         let (a, b) = (at(pa, 0.0), at(pb, 40.0));
         // Layer 0: the bead's two ends and one more far away; layer 1: one
         // waypoint 0.3 above the bead's middle.
-        let pos = [pa, pb, [40.0, 0.0, 10.0], [20.6, 0.0, 10.3]];
-        let near = NearestLayer::new(&pos, &[0, 0, 0, 1]);
+        let (_, near) =
+            NearestLayer::of_layers(&[&[pa, pb, [40.0, 0.0, 10.0]], &[[20.6, 0.0, 10.3]]]);
         let moves = near.bead_moves(&m, &a, &b, 0.05, 0, 1);
         assert!(moves.len() > 2, "the bead is split");
         assert_eq!(moves.last().unwrap().to, b);

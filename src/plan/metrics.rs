@@ -12,6 +12,7 @@
 
 use super::cost::CostModel;
 use crate::kinematics::{Axes, Machine};
+use glam::DVec3;
 use serde::Serialize;
 
 /// One side of the report (`input` or `plan`).
@@ -126,16 +127,14 @@ pub fn tip_deviation(m: &Machine, a: &Axes, b: &Axes) -> f64 {
     if m.post.interpolation() == crate::kinematics::Interpolation::TipLinear {
         return 0.0;
     }
-    let (pa, pb) = (m.tip(a), m.tip(b));
-    let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
-    let sl = (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2]).max(1e-18);
+    let (pa, pb) = (DVec3::from(m.tip(a)), DVec3::from(m.tip(b)));
+    let seg = pb - pa;
+    let sl = seg.length_squared().max(1e-18);
     (1..64)
         .map(|k| {
-            let t = m.tip_along(a, b, k as f64 / 64.0);
-            let d: [f64; 3] = std::array::from_fn(|i| t[i] - pa[i]);
-            let u = ((d[0] * seg[0] + d[1] * seg[1] + d[2] * seg[2]) / sl).clamp(0.0, 1.0);
-            let q: [f64; 3] = std::array::from_fn(|i| d[i] - u * seg[i]);
-            (q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt()
+            let d = DVec3::from(m.tip_along(a, b, k as f64 / 64.0)) - pa;
+            let u = (d.dot(seg) / sl).clamp(0.0, 1.0);
+            (d - u * seg).length()
         })
         .fold(0.0, f64::max)
 }

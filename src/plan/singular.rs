@@ -17,11 +17,12 @@
 //! mirrored member `(−tilt, C + π)` of the same orientation.
 
 use crate::kinematics::{ik_angles, wrap, Rotary};
+use glam::DVec2;
 use std::f64::consts::FRAC_PI_2;
 
 /// Is unit direction `n` in the singular region of half-angle `alpha`?
 pub fn is_singular(n: [f64; 3], alpha: f64) -> bool {
-    n[2] > 0.0 && (n[0] * n[0] + n[1] * n[1]).sqrt() <= alpha.tan() * n[2]
+    n[2] > 0.0 && DVec2::new(n[0], n[1]).length() <= alpha.tan() * n[2]
 }
 
 /// Rotary angles for the singular waypoints of one section (`None` for the

@@ -2,19 +2,20 @@
 //! and the zero-phase moving-average / median filters with correction into
 //! a tolerance cone of paper 004 (Eqs. 3–7).
 
+use glam::DVec3;
+
 type N = [f64; 3];
 
-fn norm(v: N) -> N {
-    let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+/// `v` scaled to unit length, the zero vector left as it is. It divides
+/// by the length rather than multiplying by its reciprocal as
+/// `normalize()` does: the planned orientations take its last bits.
+fn unit(v: DVec3) -> DVec3 {
+    let l = v.length();
     if l > 0.0 {
-        [v[0] / l, v[1] / l, v[2] / l]
+        v / l
     } else {
         v
     }
-}
-
-fn dot(a: N, b: N) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 /// Which smoothing to apply.
@@ -47,64 +48,55 @@ pub enum Smoothing {
 
 /// Smooth one continuous section of unit orientations.
 pub fn smooth(n: &[N], how: Smoothing) -> Vec<N> {
-    match how {
-        Smoothing::None => n.to_vec(),
-        Smoothing::Laplacian { passes } => (0..passes).fold(n.to_vec(), |acc, _| laplacian(&acc)),
+    let n: Vec<DVec3> = n.iter().map(|&v| DVec3::from(v)).collect();
+    let smoothed = match how {
+        Smoothing::None => n,
+        Smoothing::Laplacian { passes } => (0..passes).fold(n, |acc, _| laplacian(&acc)),
         Smoothing::MovingAverage { window, cone_deg } => {
-            let f = zero_phase(n, window, average);
-            correct_into_cone(n, &f, cone_deg.to_radians())
+            let f = zero_phase(&n, window, average);
+            correct_into_cone(&n, &f, cone_deg.to_radians())
         }
         Smoothing::Median { window, cone_deg } => {
-            let f = zero_phase(n, window, median);
-            correct_into_cone(n, &f, cone_deg.to_radians())
+            let f = zero_phase(&n, window, median);
+            correct_into_cone(&n, &f, cone_deg.to_radians())
         }
-    }
+    };
+    smoothed.iter().map(DVec3::to_array).collect()
 }
 
-fn laplacian(n: &[N]) -> Vec<N> {
+fn laplacian(n: &[DVec3]) -> Vec<DVec3> {
     let mut out = n.to_vec();
     for i in 1..n.len().saturating_sub(1) {
-        let (a, b, c) = (out[i - 1], n[i], n[i + 1]);
-        out[i] = norm([
-            a[0] + 0.5 * b[0] + c[0],
-            a[1] + 0.5 * b[1] + c[1],
-            a[2] + 0.5 * b[2] + c[2],
-        ]);
+        out[i] = unit(out[i - 1] + 0.5 * n[i] + n[i + 1]);
     }
     out
 }
 
-fn average(w: &[N]) -> N {
-    let mut s = [0.0; 3];
-    for v in w {
-        for k in 0..3 {
-            s[k] += v[k];
-        }
-    }
-    norm(s)
+fn average(w: &[DVec3]) -> DVec3 {
+    unit(w.iter().fold(DVec3::ZERO, |s, &v| s + v))
 }
 
-fn median(w: &[N]) -> N {
-    let mut out = [0.0; 3];
-    for (k, o) in out.iter_mut().enumerate() {
+fn median(w: &[DVec3]) -> DVec3 {
+    let mut out = DVec3::ZERO;
+    for k in 0..3 {
         let mut c: Vec<f64> = w.iter().map(|v| v[k]).collect();
         c.sort_by(f64::total_cmp);
-        *o = c[c.len() / 2];
+        out[k] = c[c.len() / 2];
     }
-    norm(out)
+    unit(out)
 }
 
 /// Causal filter of `window` samples run forward, then backward on its
 /// output (as MATLAB's `filtfilt`): no lag. Edges use the shorter windows.
-fn zero_phase(n: &[N], window: usize, f: fn(&[N]) -> N) -> Vec<N> {
+fn zero_phase(n: &[DVec3], window: usize, f: fn(&[DVec3]) -> DVec3) -> Vec<DVec3> {
     let w = window.max(1);
-    let causal = |x: &[N]| -> Vec<N> {
+    let causal = |x: &[DVec3]| -> Vec<DVec3> {
         (0..x.len())
             .map(|i| f(&x[i.saturating_sub(w - 1)..=i]))
             .collect()
     };
     let fwd = causal(n);
-    let mut rev: Vec<N> = fwd.into_iter().rev().collect();
+    let mut rev: Vec<DVec3> = fwd.into_iter().rev().collect();
     rev = causal(&rev);
     rev.into_iter().rev().collect()
 }
@@ -113,22 +105,18 @@ fn zero_phase(n: &[N], window: usize, f: fn(&[N]) -> N) -> Vec<N> {
 /// outside, rotate `b` towards it by exactly `half` (Eqs. 4–6, with the
 /// rotation axis `b × T_S` normalised so that the result lands on the
 /// smoothed side of the cone).
-fn correct_into_cone(b: &[N], t: &[N], half: f64) -> Vec<N> {
+fn correct_into_cone(b: &[DVec3], t: &[DVec3], half: f64) -> Vec<DVec3> {
     b.iter()
         .zip(t)
         .map(|(&b, &ts)| {
-            let a = dot(b, ts).clamp(-1.0, 1.0).acos();
+            let a = b.dot(ts).clamp(-1.0, 1.0).acos();
             if a <= half {
                 return ts;
             }
-            let d = dot(ts, b);
-            let u = norm([ts[0] - d * b[0], ts[1] - d * b[1], ts[2] - d * b[2]]);
+            let d = ts.dot(b);
+            let u = unit(ts - d * b);
             let (s, c) = half.sin_cos();
-            norm([
-                c * b[0] + s * u[0],
-                c * b[1] + s * u[1],
-                c * b[2] + s * u[2],
-            ])
+            unit(c * b + s * u)
         })
         .collect()
 }
@@ -140,13 +128,14 @@ mod tests {
     fn noisy(k: usize) -> Vec<N> {
         (0..k)
             .map(|i| {
-                norm([
-                    0.3 * (i as f64 * 0.05).sin() + if i % 2 == 0 { 0.05 } else { -0.05 },
-                    0.0,
-                    1.0,
-                ])
+                let wobble = if i % 2 == 0 { 0.05 } else { -0.05 };
+                unit(DVec3::new(0.3 * (i as f64 * 0.05).sin() + wobble, 0.0, 1.0)).to_array()
             })
             .collect()
+    }
+
+    fn dot(a: N, b: N) -> f64 {
+        DVec3::from(a).dot(DVec3::from(b))
     }
 
     fn roughness(n: &[N]) -> f64 {
@@ -193,10 +182,10 @@ mod tests {
         }
         // Paper 004's worked case: b = z, T_S at 60°, cone 30° → (0.5, 0, 0.866).
         let c = correct_into_cone(
-            &[[0.0, 0.0, 1.0]],
-            &[[60f64.to_radians().sin(), 0.0, 0.5]],
+            &[DVec3::Z],
+            &[DVec3::new(60f64.to_radians().sin(), 0.0, 0.5)],
             30f64.to_radians(),
         );
-        assert!((c[0][0] - 0.5).abs() < 1e-9 && (c[0][2] - 0.75f64.sqrt()).abs() < 1e-9);
+        assert!((c[0].x - 0.5).abs() < 1e-9 && (c[0].z - 0.75f64.sqrt()).abs() < 1e-9);
     }
 }

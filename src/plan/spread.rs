@@ -16,6 +16,9 @@
 //! together moves by at most the sum). The results are offered to the graph
 //! as extra candidates; the graph takes them where they are cheaper.
 
+use super::cost::CostModel;
+use crate::kinematics::Axes;
+
 /// The C tube half-width (radians) that keeps the nozzle within `tol` of
 /// its direction at tilt `tilt`: any C within `tol` of the vertical.
 pub fn c_tube(tilt: f64, tol: f64) -> f64 {
@@ -59,6 +62,59 @@ pub fn rate_limited(target: &[f64], tube: &[f64], rate: &[f64]) -> Vec<f64> {
         out[i] = fit(target[i], tube[i], out[i + 1], rate[i + 1], out[i]);
     }
     out
+}
+
+/// How much shorter a bead between two written (rounded) positions can be
+/// than between the waypoints themselves (mm): 0.0005 mm on each linear axis
+/// and 0.0005° on each angle, at both ends, 100 mm from the rotary axes.
+const ROUNDING_MM: f64 = 0.004;
+
+/// The spread of one printed run — configurations `cfg` in print order,
+/// `bead_in[i]` the length of the bead into `cfg[i]` (the first's is
+/// not printed: it enters the run through a break, or starts it), printed with `cm` — within `tol` radians of each orientation:
+/// `(i, tilt, c)` for each configuration whose spread values differ from
+/// its own, C unwound along the run. Empty when no bead of the run makes
+/// the extruder dwell.
+pub fn spread_run(
+    cfg: &[Axes],
+    bead_in: &[f64],
+    cm: &CostModel,
+    tol: f64,
+) -> Vec<(usize, f64, f64)> {
+    let n = cfg.len();
+    let slow = (1..n).any(|i| cm.dwell(bead_in[i], &cfg[i - 1], &cfg[i]) > 0.0);
+    if n < 2 || !slow {
+        return Vec::new();
+    }
+    let mut target: Vec<f64> = Vec::with_capacity(n);
+    for a in cfg {
+        let prev = target.last().copied().unwrap_or(a.c);
+        target.push(prev + cm.winding.dc(prev, a.c));
+    }
+    // Each bead's time at the slowest tip speed, less room for the
+    // program's rounding: the written bead may be up to ROUNDING_MM
+    // shorter, each angle 0.001° off.
+    let budget = |i: usize, speed: f64| {
+        let len = (bead_in[i] - ROUNDING_MM).max(0.0);
+        ((speed * len / cm.tip_speed[0]) * (1.0 - 1e-3) - 0.002)
+            .max(0.0)
+            .to_radians()
+    };
+    // C first, within the whole tolerance; then the tilt, within what C
+    // left of it.
+    let tube: Vec<f64> = cfg.iter().map(|a| c_tube(a.tilt, tol)).collect();
+    let rate: Vec<f64> = (0..n).map(|i| budget(i, cm.rotary[1])).collect();
+    let c = rate_limited(&target, &tube, &rate);
+    let tilts: Vec<f64> = cfg.iter().map(|a| a.tilt).collect();
+    let t_tube: Vec<f64> = (0..n)
+        .map(|i| (tol - c_deviation(cfg[i].tilt, c[i] - target[i])).max(0.0))
+        .collect();
+    let t_rate: Vec<f64> = (0..n).map(|i| budget(i, cm.rotary[0])).collect();
+    let t = rate_limited(&tilts, &t_tube, &t_rate);
+    (0..n)
+        .filter(|&i| (c[i] - target[i]).abs() > 1e-5 || (t[i] - tilts[i]).abs() > 1e-5)
+        .map(|i| (i, t[i], c[i]))
+        .collect()
 }
 
 #[cfg(test)]

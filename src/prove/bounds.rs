@@ -23,28 +23,21 @@
 //! point `tip + R h` adds `ω · |h|`.
 
 use crate::kinematics::{Axes, Interpolation, Machine};
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
-}
-
-/// (A square root of the squares, not `hypot`: part-frame millimetres
-/// neither overflow nor underflow, and libm's `hypot` was 2 % of a plan's
-/// CPU.)
-fn norm(a: [f64; 3]) -> f64 {
-    (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt()
-}
+use glam::DVec3;
 
 /// `G = ω² P + 2 ω |Δp|` of the move `a → b` (see the module comment);
 /// 0 under tool-centre-point control, where the tip does not bow.
+/// (Lengths are square roots of the squares, not `hypot`: part-frame
+/// millimetres neither overflow nor underflow, and `hypot` is slow in
+/// libm.)
 fn bow(m: &Machine, a: &Axes, b: &Axes) -> (f64, f64, f64) {
-    let (pa, pb) = (m.tip(a), m.tip(b));
+    let (pa, pb) = (DVec3::from(m.tip(a)), DVec3::from(m.tip(b)));
     let w = a.rotation_to(b);
-    let dp = dist(pa, pb);
+    let dp = pa.distance(pb);
     if m.post.interpolation() == Interpolation::TipLinear {
         return (0.0, w, dp);
     }
-    let lever = norm(pa).max(norm(pb)) + m.d.abs() + m.h.abs() + m.r.abs();
+    let lever = pa.length().max(pb.length()) + m.d.abs() + m.h.abs() + m.r.abs();
     (w * w * lever + 2.0 * w * dp, w, dp)
 }
 
@@ -150,12 +143,12 @@ pub fn tip_subdivision_where(
         }
         n += (n / 4).max(1);
     };
-    let n0 = smallest.len();
+    let fewest = smallest.len();
     let fit = |pts: &[Axes]| pts[..pts.len() - 1].iter().all(|x| fits(m.tip(x)));
     if fit(&smallest) {
         return (smallest, true);
     }
-    (n0 + 1..=n0 + EXTRA_PIECES)
+    (fewest + 1..=fewest + EXTRA_PIECES)
         .map(split)
         .find(|pts| within(pts) && fit(pts))
         .or_else(|| {
@@ -164,7 +157,7 @@ pub fn tip_subdivision_where(
                 a,
                 b,
                 tol,
-                (n0 * UNEVEN_STEPS).min(MAX_UNEVEN_STEPS),
+                (fewest * UNEVEN_STEPS).min(MAX_UNEVEN_STEPS),
                 &fits,
             )
         })
@@ -185,8 +178,12 @@ fn along(
         return *b;
     }
     let s = k as f64 / n as f64;
-    let p = std::array::from_fn(|i| pa[i] + s * (pb[i] - pa[i]));
-    m.axes_at(p, (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)))
+    let (pa, pb) = (DVec3::from(pa), DVec3::from(pb));
+    let p = pa + s * (pb - pa);
+    m.axes_at(
+        p.to_array(),
+        (a.tilt + s * (b.tilt - a.tilt), a.c + s * (b.c - a.c)),
+    )
 }
 
 /// The uneven split of [`tip_subdivision_where`] on a grid of `steps`
@@ -220,9 +217,17 @@ fn uneven_split(
 mod tests {
     use super::*;
     use crate::kinematics::Machine;
+    use glam::Vec3;
 
     fn axes(m: &Machine, p: [f64; 3], tilt_deg: f64, c_deg: f64) -> Axes {
         m.axes_at(p, (tilt_deg.to_radians(), c_deg.to_radians()))
+    }
+
+    /// How far along the chord `pa → pb` the point `p` projects (0 at
+    /// `pa`, 1 at `pb`).
+    fn fraction_along(pa: [f64; 3], pb: [f64; 3], p: [f64; 3]) -> f64 {
+        let (pa, seg) = (DVec3::from(pa), DVec3::from(pb) - DVec3::from(pa));
+        (DVec3::from(p) - pa).dot(seg) / seg.length_squared()
     }
 
     /// The bounds hold for densely sampled joint-linear moves: each head
@@ -255,26 +260,28 @@ mod tests {
             let n = 2000;
             let mut worst_dev: f64 = 0.0;
             for h in head_pts {
-                let own = sw.within(norm(h));
+                let own = sw.within(DVec3::from(h).length());
                 assert!(own <= d);
                 let pt = |t: f64| m.pose(&a.lerp(&b, t)).to_part(h.map(|x| x as f32));
                 for k in 0..n {
                     let (t0, t1) = (k as f64 / n as f64, (k + 1) as f64 / n as f64);
                     let (x0, x1) = (pt(t0), pt(t1));
-                    let step = dist(x0.map(|v| v as f64), x1.map(|v| v as f64));
+                    let step = Vec3::from(x0)
+                        .as_dvec3()
+                        .distance(Vec3::from(x1).as_dvec3());
                     assert!(
                         step <= own * (t1 - t0) * 1.001 + 1e-4,
                         "{step} > {} for a point {} mm from the tip",
                         own * (t1 - t0),
-                        norm(h)
+                        DVec3::from(h).length()
                     );
                 }
             }
             for k in 0..=n {
                 let t = k as f64 / n as f64;
-                let tip = m.tip(&a.lerp(&b, t));
-                let p: [f64; 3] = std::array::from_fn(|i| pa[i] + t * (pb[i] - pa[i]));
-                worst_dev = worst_dev.max(dist(tip, p));
+                let tip = DVec3::from(m.tip(&a.lerp(&b, t)));
+                let (pa, pb) = (DVec3::from(pa), DVec3::from(pb));
+                worst_dev = worst_dev.max(tip.distance(pa + t * (pb - pa)));
             }
             assert!(
                 worst_dev <= dev * 1.0001 + 1e-9,
@@ -298,11 +305,9 @@ mod tests {
             assert!(tip_deviation_bound(&m, &prev, q) <= 0.05);
             // Every piece's tip lies on the original bead.
             let t = m.tip(q);
-            let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
-            let u = ((t[0] - pa[0]) * seg[0] + (t[1] - pa[1]) * seg[1] + (t[2] - pa[2]) * seg[2])
-                / (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2]);
-            let on: [f64; 3] = std::array::from_fn(|i| pa[i] + u * seg[i]);
-            assert!(dist(t, on) < 0.002);
+            let u = fraction_along(pa, pb, t);
+            let on = DVec3::from(pa) + u * (DVec3::from(pb) - DVec3::from(pa));
+            assert!(DVec3::from(t).distance(on) < 0.002);
             prev = *q;
         }
     }
@@ -317,11 +322,7 @@ mod tests {
         let plain = tip_subdivision(&m, &a, &b, 0.05);
         let (pa, pb) = (m.tip(&a), m.tip(&b));
         // Refuse the middle third of the bead around the first split tip.
-        let u = |p: [f64; 3]| {
-            let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
-            ((p[0] - pa[0]) * seg[0] + (p[1] - pa[1]) * seg[1] + (p[2] - pa[2]) * seg[2])
-                / (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2])
-        };
+        let u = |p: [f64; 3]| fraction_along(pa, pb, p);
         let u0 = u(m.tip(&plain[0]));
         let fits = |p: [f64; 3]| (u(p) - u0).abs() > 0.02;
         assert!(!fits(m.tip(&plain[0])));
@@ -346,20 +347,16 @@ mod tests {
         let a = axes(&m, [30.0, 10.0, 50.0], -20.0, 10.0);
         let b = axes(&m, [30.6, 10.2, 50.1], -20.0, 30.0);
         let (pa, pb) = (m.tip(&a), m.tip(&b));
-        let u = |p: [f64; 3]| {
-            let seg: [f64; 3] = std::array::from_fn(|i| pb[i] - pa[i]);
-            ((p[0] - pa[0]) * seg[0] + (p[1] - pa[1]) * seg[1] + (p[2] - pa[2]) * seg[2])
-                / (seg[0] * seg[0] + seg[1] * seg[1] + seg[2] * seg[2])
-        };
+        let u = |p: [f64; 3]| fraction_along(pa, pb, p);
         // Every even split of n pieces has a tip within 1/(2n) of the
         // middle (0 for even n): refuse a little more than the widest.
-        let n0 = tip_subdivision(&m, &a, &b, 0.05).len();
-        let widest = (n0..=n0 + EXTRA_PIECES)
+        let fewest = tip_subdivision(&m, &a, &b, 0.05).len();
+        let widest = (fewest..=fewest + EXTRA_PIECES)
             .map(|n| if n % 2 == 0 { 0.0 } else { 0.5 / n as f64 })
             .fold(0.0, f64::max);
         let half = 1.02 * widest;
         let fits = |p: [f64; 3]| (u(p) - 0.5).abs() >= half;
-        for n in n0..=n0 + EXTRA_PIECES {
+        for n in fewest..=fewest + EXTRA_PIECES {
             let refused = (1..n).any(|k| (k as f64 / n as f64 - 0.5).abs() < half);
             assert!(refused, "an even split of {n} pieces would fit");
         }

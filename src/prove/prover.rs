@@ -102,10 +102,12 @@ pub struct Prover<'a> {
     /// checked with `margin + min_step` so that the moves out of them can
     /// always be proven.
     pub min_step: f64,
-    cache: Mutex<HashMap<Key, bool>>,
+    /// Moves proven, by their identity ([`key`]): `true` where one
+    /// collides (or cannot be proven free).
+    move_verdicts: Mutex<HashMap<Key, bool>>,
     /// Poses known free, and what they are known free at (colliding
     /// poses are not kept: they are rarely asked again).
-    known: Mutex<HashMap<PoseKey, Clearance>>,
+    pose_clearances: Mutex<HashMap<PoseKey, Clearance>>,
     queries: AtomicU64,
     /// Hears `(done, total)` queries of each batch as it is answered.
     ticker: Option<Ticker<'a>>,
@@ -149,8 +151,8 @@ impl<'a> Prover<'a> {
             margin,
             step: step.max(1e-3),
             min_step: 0.005,
-            cache: Mutex::new(HashMap::default()),
-            known: Mutex::new(HashMap::default()),
+            move_verdicts: Mutex::new(HashMap::default()),
+            pose_clearances: Mutex::new(HashMap::default()),
             queries: AtomicU64::new(0),
             ticker: None,
         }
@@ -247,7 +249,7 @@ impl<'a> Prover<'a> {
             })
             .collect();
         let wide = self.evaluate(&q)?;
-        let mut known = self.known.lock().expect("prover cache");
+        let mut known = self.pose_clearances.lock().expect("prover cache");
         for ((&(a, cutoff), &(margin, slope)), &h) in items.iter().zip(needs).zip(&wide) {
             if !h {
                 let e = known
@@ -289,7 +291,7 @@ impl<'a> Prover<'a> {
     /// congruent to (the same head geometry turned by a symmetry) at the
     /// pose margin.
     pub fn same_as(&self, a: &Axes, cutoff: u32, like: &Axes) {
-        let mut known = self.known.lock().expect("prover cache");
+        let mut known = self.pose_clearances.lock().expect("prover cache");
         if let Some(k) = known.get(&pose_key(like, cutoff)).copied() {
             known.insert(pose_key(a, cutoff), k);
         }
@@ -301,7 +303,7 @@ impl<'a> Prover<'a> {
     pub fn poses_at(&self, items: &[(Axes, u32)], margin: f64) -> Result<Vec<bool>, CollideError> {
         let keys: Vec<PoseKey> = items.par_iter().map(|(a, c)| pose_key(a, *c)).collect();
         let mut out: Vec<Option<bool>> = {
-            let known = self.known.lock().expect("prover cache");
+            let known = self.pose_clearances.lock().expect("prover cache");
             let known: &HashMap<PoseKey, Clearance> = &known;
             keys.par_iter()
                 .map(|k| {
@@ -317,7 +319,7 @@ impl<'a> Prover<'a> {
             .map(|&i| self.query(&items[i].0, items[i].1, margin))
             .collect();
         let hits = self.evaluate(&q)?;
-        let mut known = self.known.lock().expect("prover cache");
+        let mut known = self.pose_clearances.lock().expect("prover cache");
         for (&i, h) in todo.iter().zip(hits) {
             if !h {
                 let e = known.entry(keys[i]).or_insert(Clearance::new(margin, 0.0));
@@ -361,13 +363,13 @@ impl<'a> Prover<'a> {
     pub fn moves(&self, moves: &[MoveSpec]) -> Result<Vec<bool>, CollideError> {
         let keys: Vec<Key> = moves.par_iter().map(key).collect();
         let mut out: Vec<Option<bool>> = {
-            let cache = self.cache.lock().expect("prover cache");
+            let cache = self.move_verdicts.lock().expect("prover cache");
             let cache: &HashMap<Key, bool> = &cache;
             keys.par_iter().map(|k| cache.get(k).copied()).collect()
         };
         let todo: Vec<usize> = (0..moves.len()).filter(|&i| out[i].is_none()).collect();
         let found = self.prove(&todo.iter().map(|&i| moves[i]).collect::<Vec<_>>())?;
-        let mut cache = self.cache.lock().expect("prover cache");
+        let mut cache = self.move_verdicts.lock().expect("prover cache");
         for (&i, v) in todo.iter().zip(found) {
             cache.insert(keys[i], v);
             out[i] = Some(v);
@@ -413,7 +415,7 @@ impl<'a> Prover<'a> {
         bounds: &[f64],
     ) -> Vec<Vec<Sample>> {
         let m = self.margin;
-        let known = self.known.lock().expect("prover cache");
+        let known = self.pose_clearances.lock().expect("prover cache");
         let known: &HashMap<PoseKey, Clearance> = &known;
         let at = |a: &Axes, cutoff: u32, sw: &Sweep, d: f64| {
             [cutoff, cutoff + 1]
@@ -544,7 +546,7 @@ impl<'a> Prover<'a> {
         (slot, grown): (&[usize], &[Ask]),
         hits: &[bool],
     ) {
-        let mut known = self.known.lock().expect("prover cache");
+        let mut known = self.pose_clearances.lock().expect("prover cache");
         for (j, &(i, k, level)) in round.iter().enumerate() {
             let q = &grown[slot[j]];
             let s = &mut samples[i][k];
@@ -701,9 +703,30 @@ fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64
 mod tests {
     use super::*;
     use crate::kinematics::Machine;
+    use crate::scene::cutoff;
 
     fn axes(m: &Machine, p: [f64; 3], tilt_deg: f64, c_deg: f64) -> Axes {
         m.axes_at(p, (tilt_deg.to_radians(), c_deg.to_radians()))
+    }
+
+    /// Seven waypoints half a millimetre apart, C turning 2° a step.
+    fn chain(m: &Machine) -> Vec<Axes> {
+        (0..7)
+            .map(|k| axes(m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
+            .collect()
+    }
+
+    /// The beads printed along `way`, each with the material of the
+    /// waypoints before its start.
+    fn beads(way: &[Axes]) -> Vec<MoveSpec> {
+        way.windows(2)
+            .enumerate()
+            .map(|(k, w)| MoveSpec {
+                from: w[0],
+                to: w[1],
+                cutoff: cutoff(k),
+            })
+            .collect()
     }
 
     /// A backend that answers by the query alone: a hit when it asks for
@@ -742,18 +765,8 @@ mod tests {
         let m = Machine::default();
         let fake = profile(f32::INFINITY, f32::INFINITY);
         let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
-        let way: Vec<Axes> = (0..7)
-            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
-            .collect();
-        let beads: Vec<MoveSpec> = way
-            .windows(2)
-            .enumerate()
-            .map(|(k, w)| MoveSpec {
-                from: w[0],
-                to: w[1],
-                cutoff: k as u32 + 1,
-            })
-            .collect();
+        let way = chain(&m);
+        let beads = beads(&way);
         let intervals: usize = beads
             .iter()
             .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)))
@@ -781,10 +794,8 @@ mod tests {
         let m = Machine::default();
         let fake = profile(f32::INFINITY, f32::INFINITY);
         let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
-        let way: Vec<Axes> = (0..7)
-            .map(|k| axes(&m, [0.5 * k as f64, 0.0, 40.0], 10.0, 2.0 * k as f64))
-            .collect();
-        let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], k as u32 + 1)).collect();
+        let way = chain(&m);
+        let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], cutoff(k))).collect();
         let needs: Vec<(f64, f64)> = (0..way.len())
             .map(|k| {
                 let near: Vec<Axes> = [k.wrapping_sub(1), k + 1]
@@ -803,15 +814,7 @@ mod tests {
             .all(|&h| !h));
         let before = prover.queries() as usize;
         assert_eq!(before, way.len());
-        let beads: Vec<MoveSpec> = way
-            .windows(2)
-            .enumerate()
-            .map(|(k, w)| MoveSpec {
-                from: w[0],
-                to: w[1],
-                cutoff: k as u32 + 1,
-            })
-            .collect();
+        let beads = beads(&way);
         let interior: usize = beads
             .iter()
             .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)) - 1)

@@ -9,10 +9,10 @@
 //! *not* asked here: its column is a window of at most `max_configs`
 //! unchecked nodes over its first round of variants, in their order, and
 //! the search asks a node only when its path takes it
-//! ([`super::search`]). A node found colliding stays in its column (so
+//! ([`super::graph`]). A node found colliding stays in its column (so
 //! node indices keep their meaning) but dies, and the next variant enters
 //! the window. A column whose first round dies out gets the eager search
-//! ([`State::search_harder`]): wider rounds, then every reachable
+//! ([`Columns::search_harder`]): wider rounds, then every reachable
 //! orientation in shells, asked until the column holds a free
 //! configuration; a waypoint with none is skipped.
 //!
@@ -24,13 +24,22 @@
 //! variant only when the column has nothing else left, before the eager
 //! search. Variants are taken as they come, grazing or not.
 //!
-//! Why lazily: on simple_curve with every nozzle tilted 50° about x, 83 %
-//! of the waypoints collide as given and the eager columns asked 954,050
-//! poses to keep up to 16 free configurations each, of which the path
-//! takes one (a cap of 8 gave the very same plan).
+//! Why lazily: where most waypoints collide as given, asking every variant
+//! of every column costs a query per variant to keep up to `max_configs`
+//! free configurations each, of which the path takes one.
 
-use super::*;
+mod eager;
+
+use super::candidates;
+use super::memory::release_freed_memory;
+use super::setup::{windings, Setup};
+use super::{PlanError, Skip};
+use crate::kinematics::{ik_angles, orientation, Axes};
+use crate::prove::Prover;
+use crate::scene::cutoff;
+use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
+use std::ops::Range;
 
 /// What is known of a node's pose.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,12 +55,12 @@ pub(super) enum Status {
     /// Within the pose margin of material: never on a path.
     Hit,
     /// A waypoint's own configuration that falls short of what the beads
-    /// to its neighbours need of it ([`Prover::poses_short_of_need`]: it grazes or
-    /// collides, and is not asked at the pose margin): its waypoint gets
-    /// variants as if it collided, and it stays off paths while its column
-    /// has anything else. When the column runs out of variants it becomes
-    /// [`Status::Unknown`] (asked, like a variant, when a path takes it),
-    /// before the eager search.
+    /// to its neighbours need of it ([`Prover::poses_short_of_need`]: it
+    /// grazes or collides, and is not asked at the pose margin): its
+    /// waypoint gets variants as if it collided, and it stays off paths
+    /// while its column has anything else. When the column runs out of
+    /// variants it becomes [`Status::Unknown`] (asked, like a variant, when
+    /// a path takes it), before the eager search.
     Tight,
 }
 
@@ -60,13 +69,12 @@ pub(super) enum Status {
 /// is asked. Every waypoint offers the same pattern of variants around
 /// its own orientation, so a variant free at the probes on either side
 /// of a waypoint is likely free there too, and one that collides at
-/// either is likely to collide (on simple_curve tilted 50° the path's
-/// cheapest variants were the ones nearest the colliding input: without
-/// probes, 70 % of the nodes the paths took collided, round after round).
-/// A probe costs its whole first round; the variants between are asked
-/// lazily anyway, so a wrong guess costs a query later, not a wrong plan:
-/// there, every 16th asked 28 % fewer queries than every 8th for the same
-/// graph work (+0.1 %), every 32nd gained little more (−19 %, graph +0.5 %).
+/// either is likely to collide (the path's cheapest variants are the ones
+/// nearest the colliding input, and without probes most of the nodes the
+/// paths take would collide, round after round). A probe costs its whole
+/// first round; the variants between are asked lazily anyway, so a wrong
+/// guess costs a query later, not a wrong plan. Denser probes ask more
+/// than they save; sparser ones guess worse for little gain.
 pub(super) const PROBE_EVERY: usize = 16;
 
 /// Variants per waypoint a probe can vouch for: their IK solutions are
@@ -74,7 +82,7 @@ pub(super) const PROBE_EVERY: usize = 16;
 /// plausible.
 const PROBED_ITEMS: usize = 64;
 
-/// A node of a column, beside its configuration in [`State::cols`].
+/// A node of a column, beside its configuration in [`Columns::configs`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Node {
     /// What is known of its pose.
@@ -84,17 +92,46 @@ pub(super) struct Node {
     /// solutions) share the pose and its verdict.
     pub pose: u32,
     /// Counted against `max_configs` (further windings of one
-    /// configuration are not, as before the columns were lazy).
+    /// configuration are not: the cap counts configurations, not turns).
     pub counted: bool,
 }
 
 /// The cursor of a column with no variants left to enter its window.
 pub(super) const EXHAUSTED: u32 = u32::MAX;
 
-/// Waypoints whose next configurations [`State::refill`] finds at once.
+/// Waypoints whose next configurations [`Columns::refill`] finds at once.
 const REFILL_BLOCK: usize = 1 << 14;
 
-impl State<'_> {
+/// Stage 3's columns, which stage 4 goes on filling as it learns: per
+/// waypoint its candidate configurations and what is known of each, and
+/// what the lazy filling needs to go on.
+pub(super) struct Columns<'a> {
+    pub setup: &'a Setup<'a>,
+    /// Per waypoint: its candidate configurations (as written).
+    pub configs: Vec<Vec<Axes>>,
+    /// Beside each configuration, its node: what is known of its pose.
+    pub nodes: Vec<Vec<Node>>,
+    /// Per waypoint: the next of its first round of variants to enter its
+    /// window ([`EXHAUSTED`]: none).
+    cursor: Vec<u32>,
+    /// Per waypoint: how often a node its path took collided.
+    pub misses: Vec<u8>,
+    /// Per colliding waypoint: its first-round variants (bit
+    /// `2 · item + solution`) free at a probe — a probe's own, or those
+    /// free at both probes around it.
+    free_at: Vec<u128>,
+    /// Per waypoint: it is a probe ([`PROBE_EVERY`]).
+    probed: Vec<bool>,
+    /// Per waypoint: some configuration offered was in the machine's
+    /// ranges.
+    offered: Vec<bool>,
+    /// Per waypoint: the orientation it is planned around.
+    centre: Vec<[f64; 3]>,
+    /// Per waypoint: not visited, and why.
+    pub skip: Vec<Option<Skip>>,
+}
+
+impl<'a> Columns<'a> {
     /// May node `j` of waypoint `g`'s column be on a path?
     pub(super) fn live(&self, g: usize, j: usize) -> bool {
         matches!(self.nodes[g][j].status, Status::Free | Status::Unknown)
@@ -114,31 +151,22 @@ impl State<'_> {
         self.nodes[g].last().map_or(0, |n| n.pose + 1)
     }
 
-    /// Free the columns once the paths are final (the program reads the
-    /// configurations its paths took first).
-    pub(super) fn drop_columns(&mut self) {
-        self.cols = Vec::new();
-        self.nodes = Vec::new();
-        self.free_at = Vec::new();
-        release_freed_memory();
-    }
-
     /// Add configuration `a` to waypoint `g`'s column as pose `pose` (under
     /// a C range: one node per whole turn of C inside it), unless the
     /// column holds it already. Returns whether it was added.
     fn push_config(&mut self, g: usize, a: Axes, status: Status, pose: u32) -> bool {
-        // (Without a C range, `a`'s own C and no list: a list per config
-        // was a million small allocations on the tilted row.)
-        let turns = self.machine.c.range.map(|range| windings(a.c, range));
+        // (Without a C range, `a`'s own C and no list: a list per
+        // configuration would be an allocation per configuration.)
+        let turns = self.setup.machine.c.range.map(|range| windings(a.c, range));
         let all = turns.as_deref().unwrap_or(std::slice::from_ref(&a.c));
         if all
             .first()
-            .is_none_or(|&c| self.cols[g].contains(&Axes { c, ..a }))
+            .is_none_or(|&c| self.configs[g].contains(&Axes { c, ..a }))
         {
             return false;
         }
         for (k, &c) in all.iter().enumerate() {
-            self.cols[g].push(Axes { c, ..a });
+            self.configs[g].push(Axes { c, ..a });
             self.nodes[g].push(Node {
                 status,
                 pose,
@@ -152,11 +180,11 @@ impl State<'_> {
     /// (a rate-limited C value that is already one whole turn of C),
     /// unless the column holds it. Returns whether it was added.
     pub(super) fn push_free(&mut self, g: usize, a: Axes) -> bool {
-        if self.cols[g].contains(&a) {
+        if self.configs[g].contains(&a) {
             return false;
         }
         let pose = self.next_pose(g);
-        self.cols[g].push(a);
+        self.configs[g].push(a);
         self.nodes[g].push(Node {
             status: Status::Free,
             pose,
@@ -177,12 +205,16 @@ impl State<'_> {
     ) -> Result<Vec<bool>, PlanError> {
         let cand: Vec<Vec<Axes>> = items
             .par_iter()
-            .map(|&(g, pair)| pair.iter().filter_map(|&tc| self.feasible(g, tc)).collect())
+            .map(|&(g, pair)| {
+                pair.iter()
+                    .filter_map(|&tc| self.setup.feasible(g, tc))
+                    .collect()
+            })
             .collect();
         let mut queries = Vec::new();
         let mut owner = Vec::new();
         for (k, (c, &(g, _))) in cand.iter().zip(items).enumerate() {
-            let n = if self.symmetric {
+            let n = if self.setup.symmetric {
                 c.len().min(1)
             } else {
                 c.len()
@@ -211,7 +243,7 @@ impl State<'_> {
         };
         let mut free = vec![Vec::new(); items.len()];
         for ((&k, entered), q) in owner.iter().zip(entered).zip(&queries) {
-            if self.symmetric {
+            if self.setup.symmetric {
                 // The mirror is the same head geometry: the same verdict.
                 for a in &cand[k][1..] {
                     prover.same_as(a, q.1, &q.0);
@@ -220,74 +252,24 @@ impl State<'_> {
             let Some(status) = entered else {
                 continue;
             };
-            if self.symmetric {
+            if self.setup.symmetric {
                 free[k].extend(cand[k].iter().map(|&a| (a, status)));
             } else {
                 free[k].push((q.0, status));
             }
         }
-        let cap = self.opts.max_configs;
+        let cap = self.setup.opts.max_configs;
         for (k, &(g, _)) in items.iter().enumerate() {
             // A symmetric head's pair is one pose; otherwise each solution.
             let mut pose = self.next_pose(g);
             for (a, status) in free[k].drain(..) {
                 let room = status == Status::Tight || self.live_count(g) < cap;
                 if room && self.push_config(g, a, status, pose) {
-                    pose += (!self.symmetric) as u32;
+                    pose += (!self.setup.symmetric) as u32;
                 }
             }
         }
         Ok(cand.iter().map(|c| !c.is_empty()).collect())
-    }
-
-    /// [`State::offer`] for items that list each waypoint's candidates
-    /// together, in the order they should be preferred: a waypoint's items
-    /// are offered a wave of `max_configs` at a time, and a waypoint whose
-    /// column is full asks no more. A column keeps the first free
-    /// configurations in item order up to the cap either way, so the
-    /// columns are the same as offering every item at once; what changes
-    /// is that the items the cap would drop are never asked (on dome_cut
-    /// with its normals as given, the last resort's shells asked about
-    /// 190 directions per waypoint, half of them free, to keep 16).
-    /// Waves hold at most 2²⁰ items, which bounds the batch's memory.
-    pub(super) fn offer_until_full(
-        &mut self,
-        prover: &Prover,
-        items: &[(usize, [(f64, f64); 2])],
-    ) -> Result<Vec<bool>, PlanError> {
-        const MOST: usize = 1 << 20;
-        let (wave, cap) = (self.opts.max_configs.max(1), self.opts.max_configs);
-        // Each waypoint's items: a contiguous range.
-        let mut groups: Vec<Range<usize>> = Vec::new();
-        for (i, it) in items.iter().enumerate() {
-            match groups.last_mut() {
-                Some(r) if items[r.start].0 == it.0 => r.end = i + 1,
-                _ => groups.push(i..i + 1),
-            }
-        }
-        let mut offered = vec![false; items.len()];
-        let mut next: Vec<usize> = groups.iter().map(|r| r.start).collect();
-        loop {
-            let mut asked: Vec<usize> = Vec::new();
-            for (r, at) in groups.iter().zip(next.iter_mut()) {
-                if *at == r.end || self.live_count(items[r.start].0) >= cap {
-                    continue;
-                }
-                if asked.len() + wave > MOST && !asked.is_empty() {
-                    break;
-                }
-                let end = (*at + wave).min(r.end);
-                asked.extend(*at..end);
-                *at = end;
-            }
-            if asked.is_empty() {
-                return Ok(offered);
-            }
-            let wave_items: Vec<_> = asked.iter().map(|&i| items[i]).collect();
-            for (&i, o) in asked.iter().zip(self.offer(prover, &wave_items, false)?) {
-                offered[i] = o;
-            }
-        }
     }
 
     /// What each query `(a, g)` of `offer` (owned by `items[owner[i]]`)
@@ -303,8 +285,8 @@ impl State<'_> {
         owner: &[usize],
     ) -> Vec<(f64, f64)> {
         // joined[g]: a bead is printed from g − 1 to g.
-        let mut joined = vec![false; self.wp.pos.len()];
-        for r in &self.wp.runs {
+        let mut joined = vec![false; self.setup.toolpath.pos.len()];
+        for r in &self.setup.toolpath.runs {
             joined[r.start + 1..r.end].fill(true);
         }
         queries
@@ -323,7 +305,7 @@ impl State<'_> {
                     let nearest = cand[j]
                         .iter()
                         .map(|b| Axes {
-                            c: self.unwound(a.c, b.c),
+                            c: self.setup.unwound(a.c, b.c),
                             ..*b
                         })
                         .min_by(|x, y| a.rotation_to(x).total_cmp(&a.rotation_to(y)));
@@ -334,53 +316,65 @@ impl State<'_> {
             .collect()
     }
 
+    /// Empty columns over `setup`.
+    fn new(setup: &'a Setup<'a>) -> Self {
+        let n_wp = setup.waypoints();
+        Columns {
+            setup,
+            configs: vec![Vec::new(); n_wp],
+            nodes: vec![Vec::new(); n_wp],
+            cursor: vec![EXHAUSTED; n_wp],
+            misses: vec![0; n_wp],
+            free_at: vec![u128::MAX; n_wp],
+            probed: vec![false; n_wp],
+            offered: vec![false; n_wp],
+            centre: Vec::new(),
+            skip: vec![None; n_wp],
+        }
+    }
+
     /// Stage 3: the columns. Every waypoint's own IK solutions are asked
     /// (wide, for the beads to its neighbours); a waypoint whose own
     /// orientation collides gets a window of unchecked variants, or, with
     /// no feasible variant in the first round, the eager search; a
     /// waypoint that ends with an empty column is skipped.
-    pub(super) fn columns(&mut self, prover: &Prover) -> Result<(), PlanError> {
-        self.columns_by(prover, REFILL_BLOCK)
+    pub(super) fn build(setup: &'a Setup<'a>, prover: &Prover) -> Result<Self, PlanError> {
+        Self::build_by(setup, prover, REFILL_BLOCK)
     }
 
-    /// [`State::columns`], the windows refilled `block` waypoints at a
-    /// time ([`State::refill_by`]).
-    fn columns_by(&mut self, prover: &Prover, block: usize) -> Result<(), PlanError> {
-        let rot = self.machine.rotary;
-        let n = self.wp.pos.len();
+    /// [`Columns::build`], the windows refilled `block` waypoints at a
+    /// time ([`Columns::refill_by`]).
+    fn build_by(setup: &'a Setup<'a>, prover: &Prover, block: usize) -> Result<Self, PlanError> {
+        let mut columns = Self::new(setup);
+        let toolpath = setup.toolpath;
+        let rot = setup.machine.rotary;
+        let n = setup.waypoints();
         // The orientation each waypoint is planned around.
-        self.centre = (0..n)
-            .map(|g| self.wp.fixed[g].map_or(self.wp.n1[g], |(t, c)| orientation(rot, t, c)))
+        columns.centre = (0..n)
+            .map(|g| {
+                toolpath.singular_angles[g]
+                    .map_or(toolpath.smoothed_dirs[g], |(t, c)| orientation(rot, t, c))
+            })
             .collect();
-        let base: Vec<(usize, [(f64, f64); 2])> = (0..n).map(|g| (g, self.own_pair(g))).collect();
-        self.offered = self.offer(prover, &base, true)?;
+        let base: Vec<(usize, [(f64, f64); 2])> = (0..n).map(|g| (g, setup.own_pair(g))).collect();
+        columns.offered = columns.offer(prover, &base, true)?;
         // (The batch's temporaries, freed among the new columns: see
         // `release_freed_memory`.)
         release_freed_memory();
-        let open: Vec<usize> = (0..n).filter(|&g| self.live_count(g) == 0).collect();
-        self.cursor = vec![EXHAUSTED; n];
+        let open: Vec<usize> = (0..n).filter(|&g| columns.live_count(g) == 0).collect();
         for &g in &open {
-            self.cursor[g] = 0;
+            columns.cursor[g] = 0;
         }
-        self.probe(prover, &open)?;
+        columns.probe(prover, &open)?;
         release_freed_memory();
-        let hard = self.refill_by(&open, block);
-        self.search_harder(prover, &hard)?;
+        let hard = columns.refill_by(&open, block);
+        columns.search_harder(prover, &hard)?;
         for g in open {
-            if self.live_count(g) == 0 {
-                self.skip[g] = Some(self.why_skipped(g));
+            if columns.live_count(g) == 0 {
+                columns.skip[g] = Some(columns.why_skipped(g));
             }
         }
-        Ok(())
-    }
-
-    /// Waypoint `g`'s own orientation, as planned around (smoothed, or
-    /// fixed in the singular region), as its IK pair.
-    fn own_pair(&self, g: usize) -> [(f64, f64); 2] {
-        match self.wp.fixed[g] {
-            Some((t, c)) => [(t, c), (-t, wrap(c + std::f64::consts::PI))],
-            None => ik_angles(self.machine.rotary, self.wp.n1[g]),
-        }
+        Ok(columns)
     }
 
     /// Pick the probes among the colliding waypoints `open` (each maximal
@@ -388,11 +382,11 @@ impl State<'_> {
     /// ends and every [`PROBE_EVERY`]-th), ask their whole first rounds,
     /// and give every other waypoint of a run the variants free at the
     /// probes on either side of it as its plausible ones
-    /// ([`State::plausible`]).
+    /// ([`Columns::plausible`]).
     fn probe(&mut self, prover: &Prover, open: &[usize]) -> Result<(), PlanError> {
         let run_of = {
-            let mut r = vec![0u32; self.wp.pos.len()];
-            for (k, run) in self.wp.runs.iter().enumerate() {
+            let mut r = vec![0u32; self.setup.toolpath.pos.len()];
+            for (k, run) in self.setup.toolpath.runs.iter().enumerate() {
                 r[run.clone()].fill(k as u32);
             }
             r
@@ -421,11 +415,11 @@ impl State<'_> {
             for (i, pair) in round.iter().enumerate().take(PROBED_ITEMS) {
                 let mut each = Vec::new();
                 for (sol, &tc) in pair.iter().enumerate() {
-                    if let Some(a) = self.feasible(g, tc) {
+                    if let Some(a) = self.setup.feasible(g, tc) {
                         each.push((2 * i + sol, a));
                     }
                 }
-                if self.symmetric && !each.is_empty() {
+                if self.setup.symmetric && !each.is_empty() {
                     items.push((
                         g,
                         each.iter().map(|e| e.0).collect(),
@@ -453,7 +447,7 @@ impl State<'_> {
             }
         }
         // The probes' columns: their free variants, in order, up to the cap.
-        let cap = self.opts.max_configs;
+        let cap = self.setup.opts.max_configs;
         for ((g, _, configs), &hit) in items.iter().zip(&hits) {
             let pose = self.next_pose(*g);
             for &a in configs {
@@ -503,29 +497,29 @@ impl State<'_> {
     /// pattern of samples for every waypoint (neighbours get matching
     /// candidates, so the graph can keep the motion smooth).
     fn first_round(&self, g: usize) -> Vec<[(f64, f64); 2]> {
-        let rot = self.machine.rotary;
+        let rot = self.setup.machine.rotary;
         let sampled = candidates::round(
             self.centre[g],
             0,
             0,
-            self.opts.sampling,
-            self.opts.beta,
-            self.opts.alpha,
+            self.setup.opts.sampling,
+            self.setup.opts.beta,
+            self.setup.opts.alpha,
         );
-        std::iter::once(self.wp.n0[g])
+        std::iter::once(self.setup.toolpath.input_dirs[g])
             .chain(sampled)
             .map(|d| ik_angles(rot, d))
             .collect()
     }
 
-    /// [`State::refill`] for the waypoints `block`: their next
+    /// [`Columns::refill`] for the waypoints `block`: their next
     /// configurations found in parallel (IK and axis ranges per variant),
     /// then entered in order. Each comes with the number of its item among
     /// the waypoint's new ones (its IK solutions share a pose): one flat
-    /// list per waypoint, where a list per item had made this the tilted
-    /// rows' peak of memory.
+    /// list per waypoint (a list per item would make this the planner's
+    /// peak of memory where most waypoints collide).
     fn refill_block(&mut self, block: &[usize]) {
-        let cap = self.opts.max_configs;
+        let cap = self.setup.opts.max_configs;
         type Next = (usize, Vec<(u32, Axes, Status)>, u32);
         let next: Vec<Next> = block
             .par_iter()
@@ -537,7 +531,7 @@ impl State<'_> {
                 let (mut got, mut count) = (Vec::new(), 0);
                 while at < items.len() && count < want {
                     for (sol, &tc) in items[at].iter().enumerate() {
-                        if let Some(a) = self.feasible(g, tc) {
+                        if let Some(a) = self.setup.feasible(g, tc) {
                             let bit = 2 * at + sol;
                             let status = if self.plausible(g, bit) {
                                 count += 1;
@@ -563,10 +557,10 @@ impl State<'_> {
             self.offered[g] |= !configs.is_empty();
             let mut item = None;
             let mut pose = 0;
-            // (Counted as they enter: a count per config had made this
-            // loop quadratic in the column's length.)
+            // (Counted as they enter: a count per configuration would make
+            // this loop quadratic in the column's length.)
             let mut live = self.live_count(g);
-            self.cols[g].reserve(configs.len());
+            self.configs[g].reserve(configs.len());
             self.nodes[g].reserve(configs.len());
             for (at, a, status) in configs {
                 if item != Some(at) {
@@ -575,12 +569,12 @@ impl State<'_> {
                 }
                 let room = status == Status::Unlikely || live < cap;
                 if room && self.push_config(g, a, status, pose) {
-                    pose += (!self.symmetric) as u32;
+                    pose += (!self.setup.symmetric) as u32;
                     live += (status == Status::Unknown) as usize;
                 }
             }
             // Columns are long-lived (until the program): no spare room.
-            self.cols[g].shrink_to_fit();
+            self.configs[g].shrink_to_fit();
             self.nodes[g].shrink_to_fit();
         }
     }
@@ -595,11 +589,11 @@ impl State<'_> {
         self.refill_by(which, REFILL_BLOCK)
     }
 
-    /// [`State::refill`], `block` waypoints at a time: the configurations
-    /// waiting to enter (56 bytes each, 14 M on the 700 k stand-in tilted
-    /// 50°) were otherwise all held beside the columns they enter, the
-    /// planner's peak of memory. A waypoint's configurations depend on
-    /// its own column only, so the blocks enter what one pass would.
+    /// [`Columns::refill`], `block` waypoints at a time: otherwise the
+    /// configurations waiting to enter would all be held beside the
+    /// columns they enter, at the planner's peak of memory. A waypoint's
+    /// configurations depend on its own column only, so the blocks enter
+    /// what one pass would.
     fn refill_by(&mut self, which: &[usize], block: usize) -> Vec<usize> {
         for part in which.chunks(block.max(1)) {
             self.refill_block(part);
@@ -654,7 +648,7 @@ impl State<'_> {
                 }
                 None => {
                     group.insert((g, pose), items.len());
-                    items.push((self.cols[g][j], cutoff(g)));
+                    items.push((self.configs[g][j], cutoff(g)));
                     needs.push(need);
                     which.push((g, pose));
                 }
@@ -669,9 +663,9 @@ impl State<'_> {
             for (k, node) in self.nodes[g].iter_mut().enumerate() {
                 if node.pose == pose {
                     node.status = status;
-                    if !hit && self.cols[g][k] != a {
+                    if !hit && self.configs[g][k] != a {
                         // A mirror or a winding: the same head geometry.
-                        prover.same_as(&self.cols[g][k], c, &a);
+                        prover.same_as(&self.configs[g][k], c, &a);
                     }
                 }
             }
@@ -686,108 +680,57 @@ impl State<'_> {
         died.dedup();
         Ok(died)
     }
-
-    /// The eager search for waypoints whose columns hold nothing live:
-    /// wider rounds of variants, then every orientation the machine can
-    /// reach (5° apart), nearest first in shells of 30°, each asked until
-    /// the column holds a free configuration. Waypoints still without one
-    /// are left with empty columns (the caller skips them).
-    pub(super) fn search_harder(
-        &mut self,
-        prover: &Prover,
-        open: &[usize],
-    ) -> Result<(), PlanError> {
-        let rot = self.machine.rotary;
-        let mut open = open.to_vec();
-        // Rounds after the first, widened 10 % each.
-        let mut round = 1u32;
-        while !open.is_empty() {
-            let mut items = Vec::new();
-            for &g in &open {
-                let sampled = candidates::round(
-                    self.centre[g],
-                    0,
-                    round,
-                    self.opts.sampling,
-                    self.opts.beta,
-                    self.opts.alpha,
-                );
-                for d in sampled {
-                    items.push((g, ik_angles(rot, d)));
-                }
-            }
-            if items.is_empty() {
-                break; // Sampling exhausted.
-            }
-            self.offer_to_open(prover, &items, &mut open)?;
-            round += 1;
-        }
-        // Last resort before giving a waypoint up: every reachable
-        // orientation, nearest first, in shells of widening angle.
-        if !open.is_empty() {
-            let m = self.machine;
-            let top = m.tilt.min.abs().max(m.tilt.max.abs()).to_radians();
-            let grid = candidates::reachable_directions(top, self.opts.exhaustive_step);
-            let dirs: Vec<[f64; 3]> = grid
-                .iter()
-                .map(|p| orientation(rot, p[0].0, p[0].1))
-                .collect();
-            let shell = 30f64.to_radians();
-            let mut lo = 0.0;
-            while !open.is_empty() && lo <= std::f64::consts::PI {
-                let hi = lo + shell;
-                let mut items = Vec::new();
-                for &g in &open {
-                    let c = self.centre[g];
-                    let mut near: Vec<(f64, usize)> = dirs
-                        .iter()
-                        .enumerate()
-                        .map(|(k, d)| {
-                            let cos = (d[0] * c[0] + d[1] * c[1] + d[2] * c[2]).clamp(-1.0, 1.0);
-                            (cos.acos(), k)
-                        })
-                        .filter(|&(a, _)| a >= lo && a < hi)
-                        .collect();
-                    near.sort_by(|a, b| a.0.total_cmp(&b.0));
-                    items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
-                }
-                self.offer_to_open(prover, &items, &mut open)?;
-                lo = hi;
-            }
-        }
-        Ok(())
-    }
-
-    /// One step of [`State::search_harder`]: offer `items` until full,
-    /// note which waypoints had a feasible configuration, and keep in
-    /// `open` the waypoints still without a live one.
-    fn offer_to_open(
-        &mut self,
-        prover: &Prover,
-        items: &[(usize, [(f64, f64); 2])],
-        open: &mut Vec<usize>,
-    ) -> Result<(), PlanError> {
-        for (&(g, _), o) in items.iter().zip(self.offer_until_full(prover, items)?) {
-            self.offered[g] |= o;
-        }
-        open.retain(|&g| self.live_count(g) == 0);
-        Ok(())
-    }
 }
 
 #[cfg(test)]
 mod tests {
-    use super::super::*;
+    use super::super::{graph, head_reach, PlanOptions, Prepared};
+    use super::*;
     use crate::collide::cpu::CpuBackend;
     use crate::collide::{Backend, CollideError};
-    use crate::scene::Query;
+    use crate::kinematics::Machine;
+    use crate::scene::{Query, Scene};
+    use glam::Vec3;
+
+    /// The default job, prepared with the default settings, to plan over
+    /// one backend or another.
+    struct Fixture {
+        scene: Scene,
+        machine: Machine,
+        opts: PlanOptions,
+        prepared: Prepared,
+    }
+
+    impl Fixture {
+        fn new() -> Self {
+            let job = crate::default_job::job();
+            let machine = Machine::default();
+            let opts = PlanOptions::default();
+            let prepared = Prepared::new(&job.toolpath, &machine, &opts);
+            Fixture {
+                scene: crate::default_job::scene(),
+                machine,
+                opts,
+                prepared,
+            }
+        }
+
+        fn setup(&self) -> Setup<'_> {
+            Setup::new(&self.scene, &self.prepared, &self.machine, &self.opts)
+        }
+
+        /// A prover over `backend` at a 0.05 mm margin.
+        fn prover<'b>(&'b self, backend: &'b dyn Backend) -> Prover<'b> {
+            let reach = head_reach(&self.scene);
+            Prover::new(&self.machine, backend, reach, 0.05, self.opts.edge_step)
+        }
+    }
 
     /// The angle (radians) between a head axis and the default job's
     /// shell normal at its tip (the shells are spheres about the origin).
     fn off_normal(tip: [f32; 3], axis: [f32; 3]) -> f32 {
-        let r = (tip[0] * tip[0] + tip[1] * tip[1] + tip[2] * tip[2]).sqrt();
-        let cos = (axis[0] * tip[0] + axis[1] * tip[1] + axis[2] * tip[2]) / r;
-        cos.clamp(-1.0, 1.0).acos()
+        let (tip, axis) = (Vec3::from(tip), Vec3::from(axis));
+        (axis.dot(tip) / tip.length()).clamp(-1.0, 1.0).acos()
     }
 
     /// A backend for the default job where a pose whose head axis lies
@@ -826,30 +769,27 @@ mod tests {
 
     /// The default job's columns and paths over `backend`.
     fn planned(backend: &dyn Backend) -> Vec<Planned> {
-        let job = crate::default_job::job();
-        let scene = crate::default_job::scene();
-        let machine = Machine::default();
-        let opts = PlanOptions::default();
-        let prepared = Prepared::new(&job.toolpath, &machine, &opts);
-        let mut st = State::new(&scene, prepared, &machine, &opts);
-        let prover = Prover::new(&machine, backend, head_reach(&scene), 0.05, opts.edge_step);
-        st.columns(&prover).unwrap();
-        st.graph(&prover).unwrap();
+        let fixture = Fixture::new();
+        let setup = fixture.setup();
+        let prover = fixture.prover(backend);
+        let columns = Columns::build(&setup, &prover).unwrap();
+        let route = graph::route(columns, &prover).unwrap();
         let angle = |a: &Axes| {
-            let pose = machine.pose(a);
+            let pose = fixture.machine.pose(a);
             off_normal(pose.tip, pose.cols[2])
         };
-        let own = |g: usize| st.own_pair(g).iter().find_map(|&tc| st.feasible(g, tc));
-        let mut out: Vec<Planned> = (0..st.wp.pos.len())
+        let own = |g: usize| {
+            let pair = setup.own_pair(g);
+            pair.iter().find_map(|&tc| setup.feasible(g, tc))
+        };
+        let mut out: Vec<Planned> = (0..setup.waypoints())
             .map(|g| (own(g).as_ref().map_or(f32::INFINITY, angle), None))
             .collect();
-        for (r, p) in st.sections.iter().zip(&st.paths) {
-            for (k, g) in r.clone().enumerate() {
-                let a = st.cols[g][p.nodes[k]];
-                let taken = st
-                    .own_pair(g)
-                    .iter()
-                    .any(|&tc| st.feasible(g, tc) == Some(a));
+        for section in &route.sections {
+            for (k, g) in section.waypoints.clone().enumerate() {
+                let a = section.axes[k];
+                let pair = setup.own_pair(g);
+                let taken = pair.iter().any(|&tc| setup.feasible(g, tc) == Some(a));
                 out[g].1 = Some((taken, angle(&a)));
             }
         }
@@ -917,11 +857,9 @@ mod tests {
     /// asks fewer queries.
     #[test]
     fn offering_until_full_keeps_the_same_columns_with_fewer_queries() {
-        let job = crate::default_job::job();
-        let scene = crate::default_job::scene();
-        let machine = Machine::default();
-        let opts = PlanOptions::default();
-        let backend = CpuBackend::new(&scene);
+        let fixture = Fixture::new();
+        let (machine, opts) = (&fixture.machine, &fixture.opts);
+        let backend = CpuBackend::new(&fixture.scene);
         let top = machine
             .tilt
             .min
@@ -931,25 +869,25 @@ mod tests {
         let grid = candidates::reachable_directions(top, opts.exhaustive_step);
         // Every reachable direction for every 40th waypoint: most are free
         // on this part, far more than the cap keeps.
-        let n = scene.waypoint_queries.len();
+        let n = fixture.scene.waypoint_queries.len();
         let items: Vec<(usize, [(f64, f64); 2])> = (0..n)
             .step_by(40)
             .flat_map(|g| grid.iter().map(move |d| (g, *d)))
             .collect();
+        let setup = fixture.setup();
         let columns = |waves: bool| {
-            let prepared = Prepared::new(&job.toolpath, &machine, &opts);
-            let mut st = State::new(&scene, prepared, &machine, &opts);
-            let prover = Prover::new(&machine, &backend, head_reach(&scene), 0.05, 0.3);
+            let mut columns = Columns::new(&setup);
+            let prover = fixture.prover(&backend);
             let offered = if waves {
-                st.offer_until_full(&prover, &items).unwrap()
+                columns.offer_until_full(&prover, &items).unwrap()
             } else {
-                st.offer(&prover, &items, false).unwrap()
+                columns.offer(&prover, &items, false).unwrap()
             };
             let mut any = vec![false; n];
             for (it, o) in items.iter().zip(offered) {
                 any[it.0] |= o;
             }
-            (st.cols, any, prover.queries())
+            (columns.configs, any, prover.queries())
         };
         let (all, all_offered, all_queries) = columns(false);
         let (waved, waved_offered, waved_queries) = columns(true);
@@ -971,10 +909,7 @@ mod tests {
     /// waypoint's own orientation collides.
     #[test]
     fn refilling_in_blocks_fills_the_columns_one_pass_fills() {
-        let job = crate::default_job::job();
-        let scene = crate::default_job::scene();
-        let machine = Machine::default();
-        let opts = PlanOptions::default();
+        let fixture = Fixture::new();
         // Free only 4–12° off the shell's normal: the waypoints' own
         // orientations (smoothed normals) collide, some variants do not.
         let backend = Grazing {
@@ -982,12 +917,11 @@ mod tests {
             hi: 12f32.to_radians(),
             others_collide: true,
         };
+        let setup = fixture.setup();
         let columns = |block: usize| {
-            let prepared = Prepared::new(&job.toolpath, &machine, &opts);
-            let mut st = State::new(&scene, prepared, &machine, &opts);
-            let prover = Prover::new(&machine, &backend, head_reach(&scene), 0.05, 0.3);
-            st.columns_by(&prover, block).unwrap();
-            (st.cols, st.nodes, st.cursor, st.skip)
+            let prover = fixture.prover(&backend);
+            let c = Columns::build_by(&setup, &prover, block).unwrap();
+            (c.configs, c.nodes, c.cursor, c.skip)
         };
         let whole = columns(usize::MAX);
         let one_by_one = columns(1);
@@ -995,7 +929,7 @@ mod tests {
             .1
             .iter()
             .flatten()
-            .filter(|n| n.status == super::Status::Unknown)
+            .filter(|n| n.status == Status::Unknown)
             .count();
         assert!(unknown > 100, "{unknown} unchecked variants to compare");
         assert!(whole == one_by_one, "the columns differ");
