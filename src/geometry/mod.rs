@@ -8,6 +8,7 @@
 pub mod aabb;
 pub mod mesh;
 pub mod point_in_mesh;
+pub mod point_segment_distance;
 pub mod point_triangle_distance;
 pub mod pose;
 pub mod tri_tri;
