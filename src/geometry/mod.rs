@@ -62,7 +62,7 @@ pub(crate) fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
 }
 
 /// `a · b + c`: two roundings, as the WGSL mirrors spell it (one under
-/// [`FUSED`] in the crate's unit tests). The multiply-adds of the
+/// `FUSED` in the crate's unit tests). The multiply-adds of the
 /// collision mirror go through here, so that a test can fuse them all.
 #[inline(always)]
 pub fn madd(a: f32, b: f32, c: f32) -> f32 {

@@ -15,7 +15,7 @@
 //! clearance, so those beads start proven at that end. Ends that several
 //! moves ask in the same round (the bead into a pose and the bead out of
 //! it, the pieces of a split bead) are one query asking the most any of
-//! them needs ([`share_ends`]).
+//! them needs (`share_ends`).
 
 use super::bounds::{displacement_bound, sweep, Sweep};
 use super::levels::{level_query, Clearance};
@@ -264,7 +264,7 @@ impl<'a> Prover<'a> {
     /// The `(margin, slope)` a pose `a` must keep so that the moves
     /// between it and each of `neighbours` need no query at this end:
     /// the level their first samples ask of an end (half the first
-    /// interval), as one query ([`level_query`]); never less than
+    /// interval), as one query (`level_query`); never less than
     /// `margin + step / 2`. Moves that turn too far for a sloped query
     /// (the uniform form) add nothing: their ends are asked as they come.
     pub fn end_need(&self, a: &Axes, neighbours: &[Axes]) -> (f64, f64) {
