@@ -4,6 +4,9 @@
 //!
 //! Every arithmetic helper here spells out its evaluation order (no `glam`
 //! SIMD dot products) so that the CPU and GPU backends round identically.
+//! The exact distances in `f64` (`point_triangle_distance`,
+//! `point_segment_distance`) have no shader twin: they build the head's
+//! grids and serve the ground truth and the generators, so they use glam.
 
 pub mod aabb;
 pub mod mesh;
