@@ -30,6 +30,16 @@ fn cfg(clearance: f32) -> SceneConfig {
     }
 }
 
+/// The cpu and parry backends give `want` for `queries`, verdict for
+/// verdict.
+fn assert_cpu_and_parry_say(scene: &Scene, queries: &[Query], want: &[bool], what: &str) {
+    let cpu = CpuBackend::new(scene);
+    let parry = ParryBackend::new(scene).unwrap();
+    for b in [&cpu as &dyn Backend, &parry] {
+        assert_eq!(b.evaluate(queries).unwrap(), want, "{what}: {}", b.name());
+    }
+}
+
 /// Compare `backends` against brute force; panic on any disagreement that
 /// is not a near-contact. Returns (colliding, free) counts.
 fn agree(
@@ -196,17 +206,7 @@ fn margins_decide_flat_and_edge_to_edge_approaches() {
             .evaluate(&case.queries)
             .unwrap();
         assert_eq!(truth, case.expected, "{}: brute force", case.what);
-        let cpu = CpuBackend::new(&case.scene);
-        let parry = ParryBackend::new(&case.scene).unwrap();
-        for b in [&cpu as &dyn Backend, &parry] {
-            assert_eq!(
-                b.evaluate(&case.queries).unwrap(),
-                case.expected,
-                "{}: {}",
-                case.what,
-                b.name()
-            );
-        }
+        assert_cpu_and_parry_say(&case.scene, &case.queries, &case.expected, case.what);
     }
 }
 
@@ -240,16 +240,7 @@ fn fully_contained_triangles_collide() {
         vertices: vec![[0.0, 0.0, 30.0], [0.2, 0.0, 30.0], [0.0, 0.2, 30.1]],
         triangles: vec![[0, 1, 2]],
     };
-    let tp = maamplan::toolpath::Toolpath {
-        layers: vec![maamplan::toolpath::Layer {
-            name: "0".into(),
-            waypoints: vec![maamplan::toolpath::Waypoint {
-                pos: [0.0, 0.0, 30.0],
-                dir: [0.0, 0.0, 1.0],
-            }],
-            surface: Some(tri),
-        }],
-    };
+    let tp = one_layer(tri, [0.0, 0.0, 30.0]);
     let head = cone_head(10.0, 10.0, 20.0, 24);
     let platform = box_mesh([-50.0, -50.0, -2.0], [50.0, 50.0, 0.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(0.3)).unwrap();
@@ -273,10 +264,7 @@ fn fully_contained_triangles_collide() {
     let queries = [inside, above, not_yet];
     let truth = BruteBackend::new(&scene).evaluate(&queries).unwrap();
     assert_eq!(truth, vec![true, false, false]);
-    let cpu = CpuBackend::new(&scene);
-    let parry = ParryBackend::new(&scene).unwrap();
-    assert_eq!(cpu.evaluate(&queries).unwrap(), truth);
-    assert_eq!(parry.evaluate(&queries).unwrap(), truth);
+    assert_cpu_and_parry_say(&scene, &queries, &truth, "inside, above, not yet");
 }
 
 #[test]
@@ -292,16 +280,7 @@ fn coplanar_and_edge_touching_contacts() {
         ],
         triangles: vec![[0, 1, 2], [0, 2, 3]],
     };
-    let tp = maamplan::toolpath::Toolpath {
-        layers: vec![maamplan::toolpath::Layer {
-            name: "0".into(),
-            waypoints: vec![maamplan::toolpath::Waypoint {
-                pos: [0.0, 0.0, 5.0],
-                dir: [0.0, 0.0, 1.0],
-            }],
-            surface: Some(square),
-        }],
-    };
+    let tp = one_layer(square, [0.0, 0.0, 5.0]);
     let platform = box_mesh([-50.0, -50.0, -2.0], [50.0, 50.0, -1.0]);
     let scene = Scene::build(&tp, &head, &platform, &cfg(0.0)).unwrap();
     let at = |tip: [f32; 3], axis: [f32; 3]| Query {
@@ -387,10 +366,7 @@ fn stamps_cut_a_layer_in_half() {
         "first colliding cutoff {}",
         first_hit + 1
     );
-    let cpu = CpuBackend::new(&scene);
-    let parry = ParryBackend::new(&scene).unwrap();
-    assert_eq!(cpu.evaluate(&queries).unwrap(), truth);
-    assert_eq!(parry.evaluate(&queries).unwrap(), truth);
+    assert_cpu_and_parry_say(&scene, &queries, &truth, "cutoffs 1 to 22");
 }
 
 #[test]
@@ -534,7 +510,7 @@ fn tilted_simple_curve() -> maamplan::job::LoadedJob {
 /// The head's triangles in f64 and their boxes.
 type Boxes = Vec<[[f64; 2]; 3]>;
 
-fn f64_head(scene: &Scene) -> (Vec<[[f64; 3]; 3]>, Boxes) {
+fn f64_head(scene: &Scene) -> F64Head {
     let head: Vec<[[f64; 3]; 3]> = scene
         .head
         .triangles
@@ -558,11 +534,7 @@ fn bounds64(t: &[[f64; 3]; 3]) -> [[f64; 2]; 3] {
 
 /// The nearest head triangle's distance from `tri` (head frame, f64) when
 /// it is within `within`; infinity otherwise.
-fn head_distance64(
-    tri: &[[f64; 3]; 3],
-    (head, boxes): &(Vec<[[f64; 3]; 3]>, Boxes),
-    within: f64,
-) -> f64 {
+fn head_distance64(tri: &[[f64; 3]; 3], (head, boxes): &F64Head, within: f64) -> f64 {
     let tb = bounds64(tri);
     let mut near = f64::INFINITY;
     for (h, hb) in head.iter().zip(boxes) {
@@ -574,6 +546,73 @@ fn head_distance64(
     near
 }
 
+/// The head's triangles in f64 and their boxes, as [`f64_head`] gives them.
+type F64Head = (Vec<[[f64; 3]; 3]>, Boxes);
+
+/// Walk the tilted simple_curve's tree for every `step`-th waypoint, each
+/// asked as the planner asks, as the backends do: `visit` gets the pose
+/// and each node that neither its sphere nor its slab settles (as
+/// [`walk_undecided`] gives them) and answers whether to walk on below it.
+fn walk_past_slabs(
+    step: usize,
+    mut visit: impl FnMut(&Asked, usize, &GpuPartNode, [f32; 3], f32) -> bool,
+) {
+    let job = tilted_simple_curve();
+    let scene = &job.scene;
+    let view = SceneView::new(scene);
+    let head = f64_head(scene);
+    for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(step) {
+        let q = as_the_planner_asks(k, base);
+        let asked = Asked {
+            scene,
+            view: &view,
+            head: &head,
+            k,
+            q,
+        };
+        walk_undecided(scene, &q, |i, node, c, m| {
+            !slab_clear(view.head, view.grid, &q, node, m) && visit(&asked, i, node, c, m)
+        });
+    }
+}
+
+/// The `k`-th pose asked of the tilted simple_curve, with what brute
+/// force needs to check its triangles.
+struct Asked<'a> {
+    scene: &'a Scene,
+    view: &'a SceneView<'a>,
+    head: &'a F64Head,
+    k: usize,
+    q: GpuQuery,
+}
+
+impl Asked<'_> {
+    /// Brute force in f64 on existing triangle `t`: the clearance the
+    /// query asks of it, and the nearest head triangle's distance when
+    /// within `room` more than that (infinity otherwise).
+    fn brute(&self, t: &GpuTriangle, room: f64) -> (f64, f64) {
+        let tri = [t.v0, t.v1, t.v2].map(|v| to_head64(&self.q, v));
+        let need = asked_of(&self.q, &tri);
+        (need, head_distance64(&tri, self.head, need + room))
+    }
+
+    /// Whether `t`'s first corner lies inside the head (wholly inside is
+    /// no clearance at all).
+    fn inside_head(&self, t: &GpuTriangle) -> bool {
+        winding_number(&self.scene.head.mesh, to_head(&self.q, t.v0)) > 0.5
+    }
+
+    /// Fails unless triangle `t`, settled by `what`, lies outside the head
+    /// and farther than `need` from it (`near`, by brute force).
+    fn assert_clear(&self, what: &str, t: &GpuTriangle, need: f64, near: f64) {
+        assert!(
+            near > need && !self.inside_head(t),
+            "pose {}, {what}: a triangle {near} mm from the head settled at {need}",
+            self.k
+        );
+    }
+}
+
 #[test]
 fn node_hull_planes_settle_only_material_clear_of_the_head() {
     // Walk the tilted simple_curve's tree as the backends do; wherever a
@@ -582,35 +621,19 @@ fn node_hull_planes_settle_only_material_clear_of_the_head() {
     // must find every existing triangle below it farther than its margin
     // from every head triangle. And the test must be what settles many
     // such nodes: flat layers beside the flank.
-    let job = tilted_simple_curve();
-    let scene = &job.scene;
-    let view = SceneView::new(scene);
-    let head = f64_head(scene);
     let (mut settled, mut checked) = (0usize, 0usize);
-    for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(1499) {
-        let q = as_the_planner_asks(k, base);
-        walk_undecided(scene, &q, |i, node, c, m| {
-            if slab_clear(view.head, view.grid, &q, node, m) {
-                return false;
-            }
-            if !node_hull_clear(view.head, view.grid, &q, node, c, m) {
-                return true;
-            }
-            settled += 1;
-            for t in existing_below(scene, i, q.cutoff) {
-                let tri = [t.v0, t.v1, t.v2].map(|v| to_head64(&q, v));
-                let need = asked_of(&q, &tri);
-                let near = head_distance64(&tri, &head, need);
-                let a = to_head(&q, t.v0);
-                assert!(
-                    near > need && winding_number(&scene.head.mesh, a) < 0.5,
-                    "pose {k}, node {i}: a triangle {near} mm from the head settled at {need}"
-                );
-                checked += 1;
-            }
-            false
-        });
-    }
+    walk_past_slabs(1499, |at, i, node, c, m| {
+        if !node_hull_clear(at.view.head, at.view.grid, &at.q, node, c, m) {
+            return true;
+        }
+        settled += 1;
+        for t in existing_below(at.scene, i, at.q.cutoff) {
+            let (need, near) = at.brute(&t, 0.0);
+            at.assert_clear(&format!("node {i}"), &t, need, near);
+            checked += 1;
+        }
+        false
+    });
     assert!(
         settled > 2_000 && checked > 100_000,
         "{settled} nodes, {checked} triangles"
@@ -627,55 +650,38 @@ fn hull_planes_settle_only_material_clear_of_the_head() {
     // plane can, brute force in f64 must find it farther than the margin
     // from every head triangle. And the planes must settle nearly every
     // such triangle that brute force finds clear with room to spare.
-    let job = tilted_simple_curve();
-    let scene = &job.scene;
-    let view = SceneView::new(scene);
-    let head = f64_head(scene);
     let (mut planes, mut well_clear) = (0usize, 0usize);
-    for (k, base) in scene.waypoint_queries.iter().enumerate().step_by(211) {
-        let q = as_the_planner_asks(k, base);
-        walk_undecided(scene, &q, |i, node, _, m| {
-            if slab_clear(view.head, view.grid, &q, node, m) {
-                return false;
+    walk_past_slabs(211, |at, i, node, _, _| {
+        if node.leaf_range().is_none() {
+            return true;
+        }
+        let q = &at.q;
+        for t in existing_below(at.scene, i, q.cutoff) {
+            let [a, b, c] = [t.v0, t.v1, t.v2].map(|v| to_head(q, v));
+            let mid: [f32; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) * (1.0 / 3.0));
+            let r = [a, b, c]
+                .iter()
+                .map(|v| (0..3).map(|i| (v[i] - mid[i]).powi(2)).sum::<f32>().sqrt())
+                .fold(0.0f32, f32::max);
+            let tm = triangle_margin(q, a, b, c);
+            if classify(at.view.head, at.view.grid, mid, r, tm) != 0 {
+                continue;
             }
-            if node.leaf_range().is_none() {
-                return true;
+            let settled = hull_clear(at.view.head, at.view.grid, mid, [a, b, c], tm);
+            // Brute force in f64: what the query asks of this triangle,
+            // and whether every head triangle keeps it (and keeps it with
+            // 0.1 mm to spare).
+            let (need, near) = at.brute(&t, 0.1);
+            if settled {
+                at.assert_clear("its plane", &t, need, near);
             }
-            for t in existing_below(scene, i, q.cutoff) {
-                let [a, b, c] = [t.v0, t.v1, t.v2].map(|v| to_head(&q, v));
-                let mid: [f32; 3] = std::array::from_fn(|i| (a[i] + b[i] + c[i]) * (1.0 / 3.0));
-                let r = [a, b, c]
-                    .iter()
-                    .map(|v| (0..3).map(|i| (v[i] - mid[i]).powi(2)).sum::<f32>().sqrt())
-                    .fold(0.0f32, f32::max);
-                let tm = triangle_margin(&q, a, b, c);
-                if classify(view.head, view.grid, mid, r, tm) != 0 {
-                    continue;
-                }
-                let settled = hull_clear(view.head, view.grid, mid, [a, b, c], tm);
-                // Brute force in f64: what the query asks of this
-                // triangle, and whether every head triangle keeps it (and
-                // keeps it with 0.1 mm to spare).
-                let tri = [t.v0, t.v1, t.v2].map(|v| to_head64(&q, v));
-                let need = asked_of(&q, &tri);
-                let spare = need + 0.1;
-                let near = head_distance64(&tri, &head, spare);
-                if settled {
-                    assert!(
-                        near > need && winding_number(&scene.head.mesh, a) < 0.5,
-                        "pose {k}: a triangle {near} mm from the head settled at {need}"
-                    );
-                }
-                // Wholly inside the head is no clearance at all.
-                let contained = || winding_number(&scene.head.mesh, a) > 0.5;
-                if near > spare && !contained() {
-                    well_clear += 1;
-                    planes += settled as usize;
-                }
+            if near > need + 0.1 && !at.inside_head(&t) {
+                well_clear += 1;
+                planes += settled as usize;
             }
-            false
-        });
-    }
+        }
+        false
+    });
     assert!(
         well_clear > 20_000 && planes * 100 >= well_clear * 99,
         "planes settled {planes} of {well_clear} triangles clear by 0.1 mm more than asked"

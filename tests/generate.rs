@@ -7,13 +7,13 @@
 
 mod common;
 
+use maamplan::collide::brute::mesh_distance64;
 use maamplan::collide::cpu::CpuBackend;
 use maamplan::default_job::{box_mesh, cone_head, height_field as grid};
 use maamplan::generate::slice::frame;
 use maamplan::generate::{
     isoplanar, slice, Fill, IsoplanarOptions, IsoplanarResult, SliceOptions, SliceResult,
 };
-use maamplan::geometry::point_triangle_distance::point_triangle_distance;
 use maamplan::geometry::Mesh;
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath_folder::{load_toolpath, mesh_obj, toolpath_files};
@@ -416,15 +416,6 @@ fn plane_curve_is_flat() {
     }
 }
 
-fn distance_to_mesh(m: &Mesh, p: [f64; 3]) -> f64 {
-    (0..m.triangles.len())
-        .map(|i| {
-            let [a, b, c] = m.corners(i).map(|v| v.map(|x| x as f64));
-            point_triangle_distance(p, a, b, c)
-        })
-        .fold(f64::INFINITY, f64::min)
-}
-
 #[test]
 fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
     let mesh = saddle();
@@ -436,7 +427,7 @@ fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
     for (k, w) in wp.iter().enumerate() {
         let p = w.pos.map(|x| x as f64);
         assert!(
-            distance_to_mesh(&mesh, p) < 1e-4,
+            mesh_distance64(&mesh, p) < 1e-4,
             "waypoint {k} off the surface"
         );
         // Nozzle along the surface normal (analytic, within the mesh's error).
@@ -456,7 +447,7 @@ fn isoplanar_waypoints_lie_on_the_surface_within_the_chord_error() {
                 for s in 1..8 {
                     let t = s as f64 / 8.0;
                     let q = [0, 1, 2].map(|i| a[i] + t * (p[i] - a[i]));
-                    worst_chord = worst_chord.max(distance_to_mesh(&mesh, q));
+                    worst_chord = worst_chord.max(mesh_distance64(&mesh, q));
                 }
             }
         }

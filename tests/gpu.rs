@@ -35,6 +35,16 @@ fn context() -> Option<GpuContext> {
     ctx
 }
 
+/// Fails naming how many `what` differ and the first ten, if any do.
+fn assert_none_differ<T: std::fmt::Debug>(what: &str, differ: &[T]) {
+    assert!(
+        differ.is_empty(),
+        "{what}: {} differ: {:?}",
+        differ.len(),
+        &differ[..differ.len().min(10)]
+    );
+}
+
 /// Default options but for `batch` queries a dispatch.
 fn batches_of(batch: usize) -> GpuOptions {
     GpuOptions {
@@ -524,12 +534,7 @@ fn the_walk_kernel_lists_what_its_cpu_mirror_lists() {
             "{what}: {} queries, {hits} hit by the walk, {pairs} pairs",
             queries.len()
         );
-        assert!(
-            differ.is_empty(),
-            "{what}: {} walks differ: {:?}",
-            differ.len(),
-            &differ[..differ.len().min(10)]
-        );
+        assert_none_differ(&format!("{what}: walks"), &differ);
         assert!(
             hits > 0 && pairs > queries.len(),
             "{what}: a walk with nothing to compare"
@@ -579,12 +584,7 @@ fn the_exact_kernel_decides_each_pair_as_its_cpu_mirror_does() {
             }
         }
         eprintln!("seed {seed}: {} pairs, {hits} hit", pairs.len());
-        assert!(
-            differ.is_empty(),
-            "seed {seed}: {} pairs differ: {:?}",
-            differ.len(),
-            &differ[..differ.len().min(10)]
-        );
+        assert_none_differ(&format!("seed {seed}: pairs"), &differ);
         assert!(
             hits > 0 && hits < pairs.len(),
             "seed {seed}: {hits} of {} pairs hit",

@@ -272,7 +272,7 @@ fn a_plan_for_a_tool_centre_point_controller_passes_the_simulator() {
 /// What `../shared/tools/gcode_audit.py --fcl` reports on the reference
 /// G-code (`gcode_audit.py reference_gcode/simple_curve_Gcode.txt --fcl
 /// --toolpath simple_curve --head extruderHead.obj --platform
-/// printingPlatform.obj --place 0,0,40.5`, recorded 2026-11-22): colliding
+/// printingPlatform.obj --place 0,0,40.5`; the audit is deterministic): colliding
 /// moves at these lines, tip deviation max 6.7747 mm with 98 extruding
 /// moves over 0.05 mm, 0.18084 % of extruding moves outside [1, 25] mm/s.
 const AUDIT_COLLISION_LINES: [usize; 3] = [25844, 35940, 36071];

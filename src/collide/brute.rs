@@ -18,6 +18,8 @@
 //! `ρ` its farthest corner's distance from the tip (in `f64`).
 
 use super::{check_finite, Backend, CollideError, Query};
+use crate::geometry::point_segment_distance::point_segment_distance;
+use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::geometry::tri_tri::tri_tri_overlap;
 use crate::geometry::{Aabb, Mesh, Pose, V3};
 use crate::scene::Scene;
@@ -269,10 +271,10 @@ fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
     let (u, v, w) = (p1 - p0, q1 - q0, p0 - q0);
     let (a, b, c) = (u.dot(u), u.dot(v), v.dot(v));
     let (d, e) = (u.dot(w), v.dot(w));
-    let mut best = point_segment64(p0, q0, q1)
-        .min(point_segment64(p1, q0, q1))
-        .min(point_segment64(q0, p0, p1))
-        .min(point_segment64(q1, p0, p1));
+    let mut best = point_segment_distance(p0, q0, q1)
+        .min(point_segment_distance(p1, q0, q1))
+        .min(point_segment_distance(q0, p0, p1))
+        .min(point_segment_distance(q1, p0, p1));
     let det = a * c - b * b;
     if det > 1e-12 * a * c {
         let s = (b * e - c * d) / det;
@@ -284,16 +286,15 @@ fn segment_distance(p0: DVec3, p1: DVec3, q0: DVec3, q1: DVec3) -> f64 {
     best
 }
 
-/// Distance from `p` to segment `(a, b)`, the parameter clamped to [0, 1].
-fn point_segment64(p: DVec3, a: DVec3, b: DVec3) -> f64 {
-    let ab = b - a;
-    let l = ab.dot(ab);
-    let s = if l > 0.0 {
-        ((p - a).dot(ab) / l).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    p.distance(lerp64(a, b, s))
+/// Distance from `p` to the nearest triangle of `mesh` in `f64`, by a
+/// plain loop over them all.
+pub fn mesh_distance64(mesh: &Mesh, p: D3) -> f64 {
+    (0..mesh.triangles.len())
+        .map(|i| {
+            let [a, b, c] = mesh.corners(i).map(to64);
+            point_triangle_distance(p, a, b, c)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Generalised winding number of a closed mesh at `p` (≈1 inside, ≈0

@@ -45,6 +45,7 @@
 use super::curvature::{local_frames, unit, LocalFrame};
 use super::section::{section, SectionPoint};
 use super::{validate, GenerateError};
+use crate::geometry::point_segment_distance::point_segment_distance;
 use crate::geometry::Mesh;
 use crate::kinematics::{inverse, wrap, Axes, Machine};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
@@ -220,18 +221,6 @@ pub fn deposition_curve(frames: &[LocalFrame], opts: &IsoplanarOptions) -> Vec<C
 /// The point a fraction `t` of the way from `a` to `b`.
 fn lerp(a: DVec3, b: DVec3, t: f64) -> DVec3 {
     a + (b - a) * t
-}
-
-/// Distance from `p` to the segment `a b`.
-fn point_segment(p: DVec3, a: DVec3, b: DVec3) -> f64 {
-    let ab = b - a;
-    let l2 = ab.dot(ab);
-    let t = if l2 > 0.0 {
-        ((p - a).dot(ab) / l2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    p.distance(a + ab * t)
 }
 
 /// Generate the iso-planar path on `mesh` (a manifold surface, open or
@@ -585,8 +574,9 @@ fn sample_piece(
             let xe = (x + step).min(total);
             let (je, pe, ne) = eval(xe);
             // Section points strictly between start and end must be within δ of the chord.
-            let ok = (j0..je)
-                .all(|i| s[i] <= x || s[i] >= xe || point_segment(pts[i].pos, start, pe) <= d);
+            let ok = (j0..je).all(|i| {
+                s[i] <= x || s[i] >= xe || point_segment_distance(pts[i].pos, start, pe) <= d
+            });
             if ok || step < 1e-6 {
                 x = xe;
                 pos.push(pe);

@@ -4,10 +4,14 @@
 //!
 //! Every arithmetic helper here spells out its evaluation order (no `glam`
 //! SIMD dot products) so that the CPU and GPU backends round identically.
+//! The exact distances in `f64` (`point_triangle_distance`,
+//! `point_segment_distance`) have no shader twin: they build the head's
+//! grids and serve the ground truth and the generators, so they use glam.
 
 pub mod aabb;
 pub mod mesh;
 pub mod point_in_mesh;
+pub mod point_segment_distance;
 pub mod point_triangle_distance;
 pub mod pose;
 pub mod tri_tri;
@@ -61,7 +65,7 @@ pub(crate) fn xorshift(mut seed: u64) -> impl FnMut() -> f64 {
 }
 
 /// `a · b + c`: two roundings, as the WGSL mirrors spell it (one under
-/// [`FUSED`] in the crate's unit tests). The multiply-adds of the
+/// `FUSED` in the crate's unit tests). The multiply-adds of the
 /// collision mirror go through here, so that a test can fuse them all.
 #[inline(always)]
 pub fn madd(a: f32, b: f32, c: f32) -> f32 {

@@ -346,15 +346,13 @@ impl<'a> Controller<'a> {
         if self.tcp {
             // The words are the tip in the part frame.
             let cur = tip_position(
-                m.configuration,
-                m.rotary,
-                m.offsets(),
+                m,
                 [from[0], from[1], from[2]],
                 from[3].to_radians(),
                 from[4].to_radians(),
             );
             let p = std::array::from_fn(|k| vals[k].unwrap_or(cur[k]));
-            let xyz = linear_axes(m.configuration, m.rotary, m.offsets(), p, tr, cr);
+            let xyz = linear_axes(m, p, tr, cr);
             return [xyz[0], xyz[1], xyz[2], tilt, c];
         }
         let off = if self.tool == m.support.tool && self.tool != m.extrusion.tool {

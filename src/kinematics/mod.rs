@@ -133,22 +133,23 @@ pub fn head_pose(rot: Rotary, p: [f64; 3], tilt: f64, c: f64) -> Pose {
     }
 }
 
-/// Table I: machine X, Y, Z for part-frame tip `p` at rotary angles, with
-/// offsets `d` (config I: tip to tilt axis), `h` (config II: tip to the
-/// axes' intersection) and `r` (config II: tip to the C axis).
-pub fn linear_axes(
-    cfg: Configuration,
-    rot: Rotary,
-    off: [f64; 3],
-    p: [f64; 3],
-    t: f64,
-    c: f64,
-) -> [f64; 3] {
-    let [d, h, r] = off;
+/// The terms of Table I's rows `[d, h, r, sin t, cos t, sin c, cos c]`:
+/// the machine's offsets `d` (config I: tip to tilt axis), `h` (config
+/// II: tip to the axes' intersection) and `r` (config II: tip to the C
+/// axis), and the sines and cosines of the tilt `t` and of C.
+fn table_terms(m: &Machine, t: f64, c: f64) -> [f64; 7] {
+    let [d, h, r] = m.offsets();
     let (st, ct) = t.sin_cos();
     let (sc, cc) = c.sin_cos();
+    [d, h, r, st, ct, sc, cc]
+}
+
+/// Table I: `m`'s machine X, Y, Z for part-frame tip `p` at rotary angles
+/// `(t, c)`.
+pub fn linear_axes(m: &Machine, p: [f64; 3], t: f64, c: f64) -> [f64; 3] {
+    let [d, h, r, st, ct, sc, cc] = table_terms(m, t, c);
     let [px, py, pz] = p;
-    match (cfg, rot) {
+    match (m.configuration, m.rotary) {
         (Configuration::I, Rotary::BC) => [
             px * cc - py * sc + d * st,
             -px * sc - py * cc,
@@ -169,24 +170,15 @@ pub fn linear_axes(
             py - r * sc - h * cc * st,
             pz + h * ct - h,
         ],
-        (Configuration::III, _) => (table_rotation(rot, t, c) * DVec3::from(p)).to_array(),
+        (Configuration::III, _) => (table_rotation(m.rotary, t, c) * DVec3::from(p)).to_array(),
     }
 }
 
 /// The inverse of [`linear_axes`]: the part-frame tip for machine X, Y, Z.
-pub fn tip_position(
-    cfg: Configuration,
-    rot: Rotary,
-    off: [f64; 3],
-    xyz: [f64; 3],
-    t: f64,
-    c: f64,
-) -> [f64; 3] {
-    let [d, h, r] = off;
-    let (st, ct) = t.sin_cos();
-    let (sc, cc) = c.sin_cos();
+pub fn tip_position(m: &Machine, xyz: [f64; 3], t: f64, c: f64) -> [f64; 3] {
+    let [d, h, r, st, ct, sc, cc] = table_terms(m, t, c);
     let [x, y, z] = xyz;
-    match (cfg, rot) {
+    match (m.configuration, m.rotary) {
         (Configuration::I, Rotary::BC) => {
             // [x − d st, y] = [[cc, −sc], [−sc, −cc]] [px, py]; that matrix is its own inverse.
             let (u, v) = (x - d * st, y);
@@ -208,7 +200,7 @@ pub fn tip_position(
             z - h * ct + h,
         ],
         (Configuration::III, _) => {
-            (table_rotation(rot, t, c).transpose() * DVec3::from(xyz)).to_array()
+            (table_rotation(m.rotary, t, c).transpose() * DVec3::from(xyz)).to_array()
         }
     }
 }
@@ -266,8 +258,7 @@ impl Machine {
     pub fn axes_at(&self, p: [f64; 3], (tilt, c): (f64, f64)) -> Axes {
         let (tilt, c) = (round_angle(tilt), round_angle(c));
         Axes {
-            xyz: linear_axes(self.configuration, self.rotary, self.offsets(), p, tilt, c)
-                .map(round_written),
+            xyz: linear_axes(self, p, tilt, c).map(round_written),
             tilt,
             c,
         }
@@ -275,14 +266,7 @@ impl Machine {
 
     /// The part-frame tip of `a` (forward kinematics).
     pub fn tip(&self, a: &Axes) -> [f64; 3] {
-        tip_position(
-            self.configuration,
-            self.rotary,
-            self.offsets(),
-            a.xyz,
-            a.tilt,
-            a.c,
-        )
+        tip_position(self, a.xyz, a.tilt, a.c)
     }
 
     /// The head's pose in the part frame at axes `a`: the pose every
@@ -317,7 +301,7 @@ pub fn inverse(m: &Machine, p: V3, n: V3) -> [Axes; 2] {
     let l = (n[0] as f64).hypot(n[1] as f64).hypot(n[2] as f64);
     let n = n.map(|x| x as f64 / l);
     ik_angles(m.rotary, n).map(|(t, c)| Axes {
-        xyz: linear_axes(m.configuration, m.rotary, m.offsets(), p, t, c),
+        xyz: linear_axes(m, p, t, c),
         tilt: t,
         c,
     })
@@ -326,7 +310,7 @@ pub fn inverse(m: &Machine, p: V3, n: V3) -> [Axes; 2] {
 /// Forward kinematics: the part-frame tip and nozzle direction of `a`.
 pub fn forward(m: &Machine, a: &Axes) -> ([f64; 3], [f64; 3]) {
     (
-        tip_position(m.configuration, m.rotary, m.offsets(), a.xyz, a.tilt, a.c),
+        tip_position(m, a.xyz, a.tilt, a.c),
         orientation(m.rotary, a.tilt, a.c),
     )
 }
@@ -413,7 +397,7 @@ mod tests {
             c: 0.0,
         };
         let p = [1.46518, -14.9918, 40.736649];
-        let x = linear_axes(m.configuration, m.rotary, m.offsets(), p, a.tilt, a.c);
+        let x = linear_axes(&m, p, a.tilt, a.c);
         assert!(
             (x[0] - 1.465).abs() < 1e-3
                 && (x[1] + 14.992).abs() < 1e-3
@@ -422,14 +406,7 @@ mod tests {
         // A tilted one: B = 8.705°, C = 1.347° maps the waypoint to the
         // reference's X −5.505, Y 5.981, Z 43.811 (within its smoothing).
         let p = [-11.9286, 6.26282, 1.97323 + 40.5];
-        let x = linear_axes(
-            Configuration::III,
-            Rotary::BC,
-            [0.0; 3],
-            p,
-            8.705f64.to_radians(),
-            1.347f64.to_radians(),
-        );
+        let x = linear_axes(&m, p, 8.705f64.to_radians(), 1.347f64.to_radians());
         assert!(
             (x[0] + 5.505).abs() < 0.05
                 && (x[1] - 5.981).abs() < 0.05

@@ -12,7 +12,7 @@
 //! layer starts and triangles of layers outside the look-back window,
 //! started from where the search for the previous waypoint ended (its
 //! nearest triangle, and the cut of the tree it stopped at, with bounds
-//! that hold a bead away: [`Carry`]).
+//! that hold a bead away: `Carry`).
 
 use super::graph::Section;
 use super::setup::{distance, Setup};

@@ -110,14 +110,14 @@ const MAX_UNEVEN_STEPS: usize = 1024;
 
 /// [`tip_subdivision`] with a say over where split tips land: of the
 /// piece counts from the smallest that keeps `tol` up to
-/// [`EXTRA_PIECES`] more, the first whose every split tip (part frame, as
+/// `EXTRA_PIECES` more, the first whose every split tip (part frame, as
 /// rounded) `fits`. When no even split does (a region that does not fit
 /// around the bead's middle, say, where an even split always puts a tip),
 /// an uneven one: from the start, each split tip at the farthest fraction
 /// on a fine grid that `fits` and keeps the piece within `tol`. The
 /// smallest even split when that fails too. Also says whether every
 /// split tip fits. The planner passes "reads as the bead's own layer" (see
-/// [`super::layer_reading`]).
+/// [`crate::plan::layer_reading`]).
 pub fn tip_subdivision_where(
     m: &Machine,
     a: &Axes,

@@ -5,9 +5,9 @@
 //! `tip` and `turn` the move's [`Sweep`]): then no head point reaches the
 //! margin while the move advances by a fraction `λ` either way. A level is
 //! asked as one query whose margin grows with distance from the tip
-//! ([`level_query`]); what a pose is known to keep ([`Clearance`]) certifies
-//! the levels whose queries ask no more ([`plain_level`],
-//! [`sloped_level`]).
+//! (`level_query`); what a pose is known to keep (`Clearance`) certifies
+//! the levels whose queries ask no more (`plain_level`,
+//! `sloped_level`).
 
 use super::bounds::Sweep;
 

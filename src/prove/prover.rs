@@ -15,7 +15,7 @@
 //! clearance, so those beads start proven at that end. Ends that several
 //! moves ask in the same round (the bead into a pose and the bead out of
 //! it, the pieces of a split bead) are one query asking the most any of
-//! them needs ([`share_ends`]).
+//! them needs (`share_ends`).
 
 use super::bounds::{displacement_bound, sweep, Sweep};
 use super::levels::{level_query, Clearance};
@@ -264,7 +264,7 @@ impl<'a> Prover<'a> {
     /// The `(margin, slope)` a pose `a` must keep so that the moves
     /// between it and each of `neighbours` need no query at this end:
     /// the level their first samples ask of an end (half the first
-    /// interval), as one query ([`level_query`]); never less than
+    /// interval), as one query (`level_query`); never less than
     /// `margin + step / 2`. Moves that turn too far for a sloped query
     /// (the uniform form) add nothing: their ends are asked as they come.
     pub fn end_need(&self, a: &Axes, neighbours: &[Axes]) -> (f64, f64) {
@@ -758,32 +758,54 @@ mod tests {
         }
     }
 
+    /// The default machine, a backend that finds every pose free, and
+    /// [`chain`] on that machine.
+    fn free_chain() -> (Machine, Profile, Vec<Axes>) {
+        let m = Machine::default();
+        let way = chain(&m);
+        (m, profile(f32::INFINITY, f32::INFINITY), way)
+    }
+
+    /// The tests' prover: a head reaching 36 mm from its tip, a 0.05 mm
+    /// margin, a first sample every 0.3 mm of tip travel.
+    fn prover<'a>(m: &'a Machine, backend: &'a Profile) -> Prover<'a> {
+        Prover::new(m, backend, 36.0, 0.05, 0.3)
+    }
+
+    /// The samples inside `beads` (not their ends) the prover asks first.
+    fn interior_samples(prover: &Prover, m: &Machine, beads: &[MoveSpec]) -> usize {
+        beads
+            .iter()
+            .map(|b| prover.first_samples(&sweep(m, &b.from, &b.to)) - 1)
+            .sum()
+    }
+
+    /// The queries `backend` was asked at the pose of axes `a`.
+    fn asked_at(backend: &Profile, m: &Machine, a: &Axes) -> Vec<Query> {
+        let pose = m.pose(a);
+        let asked = backend.asked.lock().unwrap();
+        asked
+            .iter()
+            .filter(|q| q.pose.tip == pose.tip && q.pose.cols == pose.cols)
+            .copied()
+            .collect()
+    }
+
     /// A chain of beads through free poses: each waypoint between two beads
     /// is asked once for both (shared ends), not once per bead.
     #[test]
     fn beads_of_a_chain_share_their_ends() {
-        let m = Machine::default();
-        let fake = profile(f32::INFINITY, f32::INFINITY);
-        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
-        let way = chain(&m);
+        let (m, fake, way) = free_chain();
+        let prover = prover(&m, &fake);
         let beads = beads(&way);
-        let intervals: usize = beads
-            .iter()
-            .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)))
-            .sum();
+        let interior = interior_samples(&prover, &m, &beads);
         assert!(prover.moves(&beads).unwrap().iter().all(|&h| !h));
         // Every sample once: the 7 waypoints and the interior samples.
-        let interior = intervals - beads.len();
         assert_eq!(prover.queries() as usize, way.len() + interior);
         // A shared end asks what its neighbour's bead needs, with the later
         // bead's material.
-        let asked = fake.asked.lock().unwrap();
-        let mid = m.pose(&way[3]);
-        let q = asked
-            .iter()
-            .find(|q| q.pose.tip == mid.tip && q.pose.cols == mid.cols)
-            .expect("waypoint 3 asked");
-        assert_eq!(q.cutoff, 4);
+        let at_mid = asked_at(&fake, &m, &way[3]);
+        assert_eq!(at_mid.first().expect("waypoint 3 asked").cutoff, 4);
     }
 
     /// Waypoints asked for what their beads need of them
@@ -791,10 +813,8 @@ mod tests {
     /// beads ask only their interior samples.
     #[test]
     fn waypoints_asked_for_their_beads_need_no_end_samples() {
-        let m = Machine::default();
-        let fake = profile(f32::INFINITY, f32::INFINITY);
-        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
-        let way = chain(&m);
+        let (m, fake, way) = free_chain();
+        let prover = prover(&m, &fake);
         let items: Vec<(Axes, u32)> = (0..way.len()).map(|k| (way[k], cutoff(k))).collect();
         let needs: Vec<(f64, f64)> = (0..way.len())
             .map(|k| {
@@ -815,10 +835,7 @@ mod tests {
         let before = prover.queries() as usize;
         assert_eq!(before, way.len());
         let beads = beads(&way);
-        let interior: usize = beads
-            .iter()
-            .map(|b| prover.first_samples(&sweep(&m, &b.from, &b.to)) - 1)
-            .sum();
+        let interior = interior_samples(&prover, &m, &beads);
         assert!(interior > 0);
         assert!(prover.moves(&beads).unwrap().iter().all(|&h| !h));
         assert_eq!(prover.queries() as usize - before, interior);
@@ -845,7 +862,7 @@ mod tests {
         assert!(m1 > m2 && k2 > k1, "({m1}, {k1}) ({m2}, {k2})");
         // Free for each alone, a hit for both at once.
         let fake = profile(0.5 * (m1 + m2) as f32, 0.5 * (k1 + k2) as f32);
-        let prover = Prover::new(&m, &fake, 36.0, 0.05, 0.3);
+        let prover = prover(&m, &fake);
         let beads = [
             MoveSpec {
                 from: a,
@@ -859,12 +876,7 @@ mod tests {
             },
         ];
         assert_eq!(prover.moves(&beads).unwrap(), vec![false, false]);
-        let asked = fake.asked.lock().unwrap();
-        let at_b = m.pose(&b);
-        let ends: Vec<&Query> = asked
-            .iter()
-            .filter(|q| q.pose.tip == at_b.tip && q.pose.cols == at_b.cols)
-            .collect();
+        let ends = asked_at(&fake, &m, &b);
         // Shared (failed), then once for each bead.
         assert_eq!(ends.len(), 3, "{ends:?}");
     }

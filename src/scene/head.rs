@@ -504,18 +504,9 @@ fn vertical_crossing(t: &[[f64; 3]; 3], x: f64, y: f64) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::collide::brute::mesh_distance64;
     use crate::collide::cpu::classify;
     use crate::default_job::cone_head;
-
-    fn brute_distance(mesh: &Mesh, p: V3) -> f64 {
-        let p = p.map(|x| x as f64);
-        (0..mesh.triangles.len())
-            .map(|i| {
-                let [a, b, c] = mesh.corners(i).map(|v| v.map(|x| x as f64));
-                point_triangle_distance(p, a, b, c)
-            })
-            .fold(f64::INFINITY, f64::min)
-    }
 
     /// Every far cell outside the head's box holds the exact distance from
     /// its centre (the BVH search against a plain loop), so the bound
@@ -536,7 +527,7 @@ mod tests {
                 assert_eq!(v, 0.0);
                 continue;
             }
-            let d = brute_distance(&head.mesh, p);
+            let d = mesh_distance64(&head.mesh, p.map(f64::from));
             assert!(
                 (v - d).abs() <= 1e-5 * d.max(1.0),
                 "cell {ijk:?}: far {v}, brute {d}"
@@ -566,12 +557,7 @@ mod tests {
             let p: [f64; 3] = std::array::from_fn(|a| {
                 h.grid_origin[a] as f64 + (ijk[a] as f64 + 0.5) * h.cell as f64
             });
-            let d = (0..head.mesh.triangles.len())
-                .map(|i| {
-                    let [a, b, c] = head.mesh.corners(i).map(|v| v.map(|x| x as f64));
-                    point_triangle_distance(p, a, b, c)
-                })
-                .fold(f64::INFINITY, f64::min);
+            let d = mesh_distance64(&head.mesh, p);
             if d < band {
                 assert_eq!(head.grid[idx as usize].abs(), d as f32, "cell {ijk:?}");
                 inside_band += 1;
@@ -592,7 +578,7 @@ mod tests {
         let c = [h.aabb_max[0] + 0.3 * extent, 0.0, h.aabb_min[2]];
         let fine_hi = h.grid_origin[0] + h.grid_dims[0] as f32 * h.cell;
         assert!(c[0] > fine_hi, "the centre lies beside the fine grid");
-        let d = brute_distance(&head.mesh, c) as f32;
+        let d = mesh_distance64(&head.mesh, c.map(f64::from)) as f32;
         let r = d - 2.0 * h.far_cell;
         let box_d = point_box_distance(c, h.aabb_min, h.aabb_max);
         assert!(

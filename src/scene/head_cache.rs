@@ -225,16 +225,23 @@ mod tests {
         assert_eq!(bits(&a.grid), bits(&b.grid));
     }
 
+    /// The first call for `mesh` in `dir`, which builds the head and
+    /// writes its entry: the head and the entry's path.
+    fn first_written(mesh: &Mesh, dir: &Path) -> (Head, PathBuf) {
+        let (built, first) = load_or_build(mesh, &cfg(), 1e-5, Some(dir)).unwrap();
+        let CacheOutcome::Written(path) = first else {
+            panic!("first call: {first:?}");
+        };
+        (built, path)
+    }
+
     /// The second call reads what the first wrote, and what it reads is
     /// the built head bit for bit, at the caller's tolerance.
     #[test]
     fn reads_back_what_it_built() {
         let dir = tempfile::tempdir().unwrap();
         let mesh = cone_head(5.0, 5.0, 12.0, 24);
-        let (built, first) = load_or_build(&mesh, &cfg(), 1e-5, Some(dir.path())).unwrap();
-        let CacheOutcome::Written(path) = first else {
-            panic!("first call: {first:?}");
-        };
+        let (built, path) = first_written(&mesh, dir.path());
         let (read, second) = load_or_build(&mesh, &cfg(), 3e-5, Some(dir.path())).unwrap();
         assert_eq!(second, CacheOutcome::Read(path));
         same(&read, &Head::build(&mesh, &cfg(), 3e-5).unwrap());
@@ -247,10 +254,7 @@ mod tests {
     fn rebuilds_what_does_not_match() {
         let dir = tempfile::tempdir().unwrap();
         let mesh = cone_head(5.0, 5.0, 12.0, 24);
-        let (_, w) = load_or_build(&mesh, &cfg(), 1e-5, Some(dir.path())).unwrap();
-        let CacheOutcome::Written(path) = w else {
-            panic!("{w:?}")
-        };
+        let (_, path) = first_written(&mesh, dir.path());
         let finer = HeadConfig {
             grid_resolution: 40,
             ..cfg()

@@ -40,8 +40,8 @@ const EXACT_SLAB_TRIS: u32 = 64;
 /// normal is its children's area-weighted normals added with their
 /// signs aligned (the data set's layers alternate their winding), and
 /// its interval is exact over the vertices of subtrees of at most
-/// [`EXACT_SLAB_TRIS`] triangles and, above, the tighter of its box's and
-/// its children's slabs' ([`child_interval`]).
+/// `EXACT_SLAB_TRIS` triangles and, above, the tighter of its box's and
+/// its children's slabs' (`child_interval`).
 pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
     let nodes = &bvh.nodes;
     // Normals, children first (the depth-first layout stores every child

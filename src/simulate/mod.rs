@@ -3,7 +3,7 @@
 //!
 //! Three stages, each a plain function:
 //!
-//! 1. [`timeline`]: read as [`crate::io::gcode_read::read_program`] reads
+//! 1. [`timeline()`]: read as [`crate::io::gcode_read::read_program`] reads
 //!    it, the program prints the toolpath's layer surfaces in its own
 //!    order; [`Timeline`] says which material exists during each line, and
 //!    [`crate::scene::Scene::restamp`] turns that into a scene.

@@ -21,7 +21,7 @@
 //! above (or below) than to either end of its bead. Such a line is not
 //! printing that layer: where the lines of one extruding run read as
 //! layer `L`, then as other layers, then as `L` again, the lines between
-//! read as `L` and their ends as the nearest waypoint of `L` ([`blips`]).
+//! read as `L` and their ends as the nearest waypoint of `L` (`blips`).
 
 use crate::io::gcode_read::{axes_of, GcodeMove};
 use crate::kinematics::Machine;

@@ -276,8 +276,9 @@ pub struct MarginCase {
     pub expected: Vec<bool>,
 }
 
-/// A one-layer toolpath whose surface is `surface`, printed from `at`.
-fn one_layer(surface: Mesh, at: V3) -> Toolpath {
+/// A one-layer toolpath whose surface is `surface`, printed from `at`
+/// with the nozzle up.
+pub fn one_layer(surface: Mesh, at: V3) -> Toolpath {
     Toolpath {
         layers: vec![Layer {
             name: "0".into(),

@@ -181,7 +181,7 @@ pub fn support_cell(u: [f32; 3]) -> u32 {
     (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
 }
 
-/// A word of [`support_pairs`] as the kernels read it (WGSL's
+/// A word of [`support_pairs`](crate::scene::slab::support_pairs) as the kernels read it (WGSL's
 /// `unpack2x16float`, exact): the bounds of `h(u)` and `h(−u)`.
 ///
 /// Twin: WGSL's `unpack2x16float` of `grid_word`, in `slab_gap`

@@ -1,6 +1,6 @@
 //! The cpu backend's own tree walk (no WGSL twin: the kernels walk as
 //! `collide_traverse.wgsl` does, mirrored step for step by
-//! [`super::traverse`]). One walk ([`walk`]) serves both ways the backend
+//! [`super::traverse`]). One walk (`walk`) serves both ways the backend
 //! asks: [`first_hit`] is it from the root, keeping nothing, and a
 //! worker's [`Frontier`] is it from the cut of the tree its last query
 //! stopped at. It tests each undecided triangle on the spot ([`leaf_hit`])
@@ -44,7 +44,7 @@ pub const NO_TRIANGLE: u32 = u32::MAX;
 
 /// [`query_hits`], naming what decided it: the first triangle (index into
 /// the part triangles) that hits, or [`NO_TRIANGLE`] when a node wholly
-/// inside the head did. [`walk`] from the root, its cut kept nowhere.
+/// inside the head did. `walk` from the root, its cut kept nowhere.
 pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
     walk(s, q, 0, &mut [0; STACK_SIZE], &mut NoCut)
 }

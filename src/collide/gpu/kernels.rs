@@ -20,7 +20,7 @@ impl GpuBackend {
     /// found it colliding and its undecided triangles in walk order (one invocation appends its pairs in order,
     /// so the shared list keeps each query's order). Fails when the pairs
     /// do not fit the candidate list: build the backend with a larger
-    /// [`GpuOptions::capacity`].
+    /// [`GpuOptions::capacity`](crate::collide::gpu::tuning::GpuOptions::capacity).
     pub fn walks(&self, queries: &[Query]) -> Result<Vec<Walk>, CollideError> {
         check_finite(queries)?;
         self.fits(queries.len())?;

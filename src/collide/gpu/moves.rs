@@ -74,7 +74,7 @@ struct MoveBatch {
 /// reduced (`collide_reduce`) on the device; one move record goes up and
 /// one word per move comes back.
 impl GpuBackend {
-    /// [`Backend::sampled_moves`] on the device, batches of at most
+    /// [`Backend::sampled_moves`](crate::collide::Backend::sampled_moves) on the device, batches of at most
     /// `batch` samples, two in flight.
     pub(super) fn moves_on_device(
         &self,

@@ -307,21 +307,21 @@ impl BatchSet {
                 mapped_at_creation: false,
             })
         };
+        use std::mem::size_of;
         use wgpu::BufferUsages as U;
+        // A uniform holding one value of `size` bytes; a buffer with one
+        // entry of `each` bytes per query or move of a batch.
+        let uniform = |what: &str, size: usize| buf(what, size as u64, U::UNIFORM | U::COPY_DST);
         let batch = sizes.batch as u64;
-        let query_size = std::mem::size_of::<GpuQuery>() as u64;
-        let params = buf(
-            "params",
-            std::mem::size_of::<GpuParams>() as u64,
-            U::UNIFORM | U::COPY_DST,
-        );
+        let per_batch = |what: &str, each: usize, usage| buf(what, batch * each as u64, usage);
+        let params = uniform("params", size_of::<GpuParams>());
         // (Copied only by `expanded`, for its test.)
-        let queries = buf(
+        let queries = per_batch(
             "queries",
-            batch * query_size,
+            size_of::<GpuQuery>(),
             U::STORAGE | U::COPY_DST | U::COPY_SRC,
         );
-        let results = buf("results", batch * 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
+        let results = per_batch("results", 4, U::STORAGE | U::COPY_SRC | U::COPY_DST);
         // (Copied only by the kernel-by-kernel tests, `walks` and
         // `exact_pairs`.)
         let candidates = buf(
@@ -344,18 +344,10 @@ impl BatchSet {
         resources.push(candidates.as_entire_binding());
         resources.push(control.as_entire_binding());
         let bind_group = bind_group_of(device, &layouts.collide, label, resources);
-        let motion = buf(
-            "motion",
-            std::mem::size_of::<GpuMotion>() as u64,
-            U::UNIFORM | U::COPY_DST,
-        );
-        let moves = buf(
-            "moves",
-            batch * std::mem::size_of::<GpuMove>() as u64,
-            U::STORAGE | U::COPY_DST,
-        );
-        let move_results = buf("move results", batch * 4, U::STORAGE | U::COPY_SRC);
-        let move_readback = buf("move readback", batch * 4, U::MAP_READ | U::COPY_DST);
+        let motion = uniform("motion", size_of::<GpuMotion>());
+        let moves = per_batch("moves", size_of::<GpuMove>(), U::STORAGE | U::COPY_DST);
+        let move_results = per_batch("move results", 4, U::STORAGE | U::COPY_SRC);
+        let move_readback = per_batch("move readback", 4, U::MAP_READ | U::COPY_DST);
         let motion_group = bind_group_of(
             device,
             &layouts.motion,

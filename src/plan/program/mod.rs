@@ -280,8 +280,7 @@ pub fn approach_point(m: &Machine, a: &Axes) -> Axes {
     let p = DVec3::from(m.tip(a));
     let n = DVec3::from(crate::kinematics::orientation(m.rotary, a.tilt, a.c));
     let q = (p + m.travel.approach * n).to_array();
-    let lin =
-        crate::kinematics::linear_axes(m.configuration, m.rotary, m.offsets(), q, a.tilt, a.c);
+    let lin = crate::kinematics::linear_axes(m, q, a.tilt, a.c);
     Axes {
         xyz: lin.map(round_written),
         ..*a

@@ -9,7 +9,7 @@ use rayon::prelude::*;
 /// A value per node from the leaves up: `leaf(first, count)` for a leaf,
 /// `join` of its children's for an inner node; `packed(i)` is node `i`'s
 /// [`GpuNode`] word (child index or leaf range). The depth-first layout
-/// ([`lay_out`]) stores every child after its parent, so one sweep
+/// ([`super::layout::lay_out`]) stores every child after its parent, so one sweep
 /// back from the last node meets the children first.
 fn bottom_up<T: Copy + Default>(
     n: usize,
@@ -97,7 +97,7 @@ pub fn refresh_min_stamps(nodes: &mut [GpuPartNode], tris: &[GpuTriangle]) {
 }
 
 /// Each node's triangles as `(first, end)` in [`StampedBvh::triangles`]:
-/// the depth-first layout ([`lay_out`]) numbers a subtree's leaves
+/// the depth-first layout ([`super::layout::lay_out`]) numbers a subtree's leaves
 /// one after another, so a subtree's triangles are one contiguous run.
 pub(crate) fn triangle_spans(nodes: &[GpuNode]) -> Vec<(u32, u32)> {
     bottom_up(
@@ -125,7 +125,7 @@ const EXACT_SPHERE_TRIS: u32 = 64;
 
 /// The same tree as bounding spheres: centre = box centre, radius = the
 /// farthest vertex below (exact for subtrees of at most
-/// [`EXACT_SPHERE_TRIS`] triangles, a bound from the children's spheres
+/// `EXACT_SPHERE_TRIS` triangles, a bound from the children's spheres
 /// and the box above), computed in `f64` and rounded up so the sphere
 /// always contains every triangle.
 pub fn sphere_nodes(bvh: &StampedBvh) -> Vec<GpuPartNode> {

@@ -54,7 +54,7 @@ impl Collapse {
 /// What the layout needs of a subtree of the collapsed tree: the
 /// triangles its root holds as a leaf (0: inner), its leaves and its
 /// triangles — packed in one word per node of obvhs's tree (8, 27 and 27
-/// bits: [`MAX_TRIS`] is 2²⁷).
+/// bits: [`MAX_TRIS`](crate::scene::gpu_types::MAX_TRIS) is 2²⁷).
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct Subtree {
     count: u32,
@@ -104,7 +104,7 @@ const PARALLEL_PRIMS: u32 = 1 << 14;
 /// Two walks over obvhs's nodes, each with large subtrees' halves on
 /// different threads: the first measures every subtree from the leaves
 /// up ([`measure`], the collapse included), the second writes each
-/// subtree into the slots the first found for it ([`write`]). obvhs's
+/// subtree into the slots the first found for it ([`write()`]). obvhs's
 /// own collapse rebuilds its node array and parent links, which with a
 /// copy and a walk of its own costs more than these two; the tree, and so
 /// the layout, are the same (test `the_layout_walks_obvhs_collapsed_tree`).

@@ -15,8 +15,8 @@
 //! from the head is culled as before. The verdicts do not depend on the
 //! tree, only the work does (paired runs in BENCHMARKS.md).
 //!
-//! The build is here; [`layout`] collapses obvhs's tree and lays it out
-//! depth first, [`bounds`] computes what each node bounds (boxes, stamps,
+//! The build is here; `layout` collapses obvhs's tree and lays it out
+//! depth first, `bounds` computes what each node bounds (boxes, stamps,
 //! spheres) from the triangles below it.
 
 mod bounds;
