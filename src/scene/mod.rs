@@ -4,6 +4,7 @@
 //! platform has stamp 0 and layer surface `k`'s triangles take the global
 //! index + 1 of the nearest waypoint of layer `k` (DESIGN.md).
 
+pub mod beads;
 pub mod bvh;
 pub mod gpu_types;
 pub mod head;
