@@ -16,7 +16,7 @@ use crate::geometry::{Aabb, Mesh};
 use crate::io::mesh::load_mesh;
 use crate::io::toolpath_folder::load_toolpath;
 use crate::io::{InputError, Placement};
-use crate::scene::{HeadConfig, Scene, SceneConfig, SceneError};
+use crate::scene::{BeadSettings, HeadConfig, PartModel, Scene, SceneConfig, SceneError};
 use crate::toolpath::Toolpath;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -58,6 +58,11 @@ pub struct JobSpec {
     pub keep_normals: bool,
     /// Rotate every nozzle direction by this many degrees about x first.
     pub tilt_deg: Option<f64>,
+    /// What the part is modelled from.
+    pub part: PartModel,
+    /// How beads are made where the part is modelled from them (the
+    /// machine's extrusion).
+    pub beads: BeadSettings,
 }
 
 /// A job loaded from its [`JobSpec`]: the toolpath with the conventions
@@ -144,7 +149,7 @@ impl LoadedJob {
             Some(p) => load_mesh(p)?,
             None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
         };
-        let cfg = scene_config(spec.clearance);
+        let cfg = scene_config(spec.clearance, spec.part, spec.beads);
         let (scene, beside_result) = rayon::join(
             || Scene::build(&toolpath, &head, &platform, &cfg),
             || beside(&toolpath),
@@ -176,8 +181,9 @@ impl LoadedJob {
 }
 
 /// The scene settings of a loaded job: contact within `clearance` of the
-/// tip, along the nozzle, ignored; the head's data cached between runs.
-pub fn scene_config(clearance: f32) -> SceneConfig {
+/// tip, along the nozzle, ignored; the head's data cached between runs;
+/// the part modelled as `part` says, beads made as `beads` says.
+pub fn scene_config(clearance: f32, part: PartModel, beads: BeadSettings) -> SceneConfig {
     SceneConfig {
         head: HeadConfig {
             tip_clearance: clearance,
@@ -185,6 +191,8 @@ pub fn scene_config(clearance: f32) -> SceneConfig {
         },
         max_edge: None,
         head_cache: true,
+        part,
+        beads,
     }
 }
 

@@ -27,6 +27,7 @@ fn cfg(clearance: f32) -> SceneConfig {
         },
         max_edge: None,
         head_cache: false,
+        ..SceneConfig::default()
     }
 }
 

@@ -8,6 +8,7 @@ use anyhow::Result;
 use clap::Args;
 use maamplan::collide::gpu::GpuOptions;
 use maamplan::collide::sample::tilted_queries;
+use maamplan::kinematics::Machine;
 use maamplan::scene::{Query, Scene};
 use serde_json::json;
 use std::path::PathBuf;
@@ -95,7 +96,7 @@ pub fn run(a: BenchArgs) -> Result<()> {
     if a.backends.is_empty() {
         return Err(UsageError("--backends needs at least one backend".into()).into());
     }
-    let loaded = a.scene.load()?;
+    let loaded = a.scene.load(&Machine::default())?;
     let scene = &loaded.scene;
     if !(a.margin.is_finite() && a.margin >= 0.0) {
         return Err(

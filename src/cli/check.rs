@@ -53,7 +53,7 @@ pub struct CheckArgs {
 pub fn run(a: CheckArgs) -> Result<()> {
     let (machine, margin) = machine_and_margin(a.machine.as_deref(), a.margin)?;
     let opening = a.backend.open();
-    let job = a.scene.load()?;
+    let job = a.scene.load(&machine)?;
     let backend = a
         .backend
         .build_with(opening, &job.scene, !a.quiet, Default::default())?;

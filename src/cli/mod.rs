@@ -22,7 +22,7 @@ use maamplan::io::Placement;
 use maamplan::job::{JobError, JobSpec, LoadedJob};
 use maamplan::kinematics::{load_machine, Machine};
 use maamplan::report::json::pretty_bytes;
-use maamplan::scene::Scene;
+use maamplan::scene::{BeadSettings, PartModel, Scene};
 use maamplan::toolpath::Toolpath;
 use std::path::{Path, PathBuf};
 
@@ -95,18 +95,46 @@ pub struct SceneArgs {
     /// before anything else (as `shared/tools/fcl_check.py --tilt`).
     #[arg(long, value_name = "DEG", allow_hyphen_values = true)]
     tilt: Option<f64>,
+    /// What the part printed so far is modelled from: each layer's surface
+    /// where the toolpath has one and the beads it deposits elsewhere
+    /// (auto), the surfaces alone, or the beads alone.
+    #[arg(long, value_enum, default_value_t = PartArg::Auto)]
+    part: PartArg,
+}
+
+/// `--part`: what the printed-so-far part is modelled from.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PartArg {
+    /// Layer surfaces where given, deposited beads elsewhere.
+    Auto,
+    /// Layer surfaces only.
+    Surfaces,
+    /// Deposited beads only.
+    Beads,
+}
+
+impl PartArg {
+    fn model(self) -> PartModel {
+        match self {
+            PartArg::Auto => PartModel::Auto,
+            PartArg::Surfaces => PartModel::Surfaces,
+            PartArg::Beads => PartModel::Beads,
+        }
+    }
 }
 
 impl SceneArgs {
-    /// Load the inputs (or the built-in example) and build the scene.
-    pub fn load(&self) -> Result<LoadedJob> {
-        Ok(self.load_beside(|_| ())?.0)
+    /// Load the inputs (or the built-in example) and build the scene,
+    /// beads (where the part is modelled from them) as `machine` lays them.
+    pub fn load(&self, machine: &Machine) -> Result<LoadedJob> {
+        Ok(self.load_beside(machine, |_| ())?.0)
     }
 
     /// [`SceneArgs::load`], running `beside` on the toolpath while the
     /// scene is built ([`LoadedJob::load_beside`]).
     pub fn load_beside<T: Send>(
         &self,
+        machine: &Machine,
         beside: impl FnOnce(&Toolpath) -> T + Send,
     ) -> Result<(LoadedJob, T)> {
         if let Some(t) = self.tilt {
@@ -125,6 +153,8 @@ impl SceneArgs {
             clearance: self.clearance,
             keep_normals: self.keep_normals,
             tilt_deg: self.tilt,
+            part: self.part.model(),
+            beads: BeadSettings::of_machine(machine),
         };
         LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),

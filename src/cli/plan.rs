@@ -186,7 +186,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let opening = a.backend.open();
     let (job, prepared) = a
         .scene
-        .load_beside(|toolpath| Prepared::new(toolpath, &machine, &opts))?;
+        .load_beside(&machine, |toolpath| Prepared::new(toolpath, &machine, &opts))?;
     let backend = a
         .backend
         .build_with(opening, &job.scene, !a.quiet, Default::default())?;

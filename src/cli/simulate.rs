@@ -17,7 +17,7 @@ use maamplan::report::html::{simulation_html, ReportContext};
 use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::moves_csv::write_moves_csv;
 use maamplan::report::plots::simulation_figures;
-use maamplan::scene::Scene;
+use maamplan::scene::{BeadSettings, PartModel, Scene};
 use maamplan::simulate::{self, ProblemKind, Simulation};
 use maamplan::toolpath::Toolpath;
 use std::fmt::Write;
@@ -59,9 +59,9 @@ pub struct SimulateArgs {
 }
 
 /// The toolpath and scene: the job's, or (no TOOLPATH) the platform alone.
-fn load_scene(a: &SimulateArgs) -> Result<(String, Toolpath, Scene)> {
+fn load_scene(a: &SimulateArgs, machine: &Machine) -> Result<(String, Toolpath, Scene)> {
     if a.scene.toolpath.is_some() {
-        let job = a.scene.load()?;
+        let job = a.scene.load(machine)?;
         return Ok((job.source, job.toolpath, job.scene));
     }
     let Some(platform) = &a.scene.platform else {
@@ -79,7 +79,7 @@ fn load_scene(a: &SimulateArgs) -> Result<(String, Toolpath, Scene)> {
         &tp,
         &head,
         &load_mesh(platform)?,
-        &scene_config(a.scene.clearance),
+        &scene_config(a.scene.clearance, PartModel::Auto, BeadSettings::of_machine(machine)),
     )?;
     Ok(("platform only".into(), tp, scene))
 }
@@ -94,7 +94,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let moves = load_program(&a.gcode, &machine)?;
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
-    let (source, toolpath, mut scene) = load_scene(&a)?;
+    let (source, toolpath, mut scene) = load_scene(&a, &machine)?;
     show.stage_line("load", t0.elapsed().as_secs_f64(), None);
     show.note(&scene.head_cache.to_string());
 

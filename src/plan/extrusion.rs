@@ -57,7 +57,7 @@ pub(super) fn extrude(setup: &Setup, sections: &[Section]) -> Extrusion {
         &toolpath.pos,
         &toolpath.layer_of,
         &toolpath.layer_start,
-        [0.05 * d, 4.0 * d],
+        crate::scene::beads::height_range(d),
     );
     let mut e_at = vec![0.0; toolpath.pos.len()];
     let mut e = 0.0;

@@ -123,7 +123,7 @@ impl Default for PlanOptions {
             beta: 45f64.to_radians(),
             sampling: Sampling::Random { k: 24 },
             edge_step: 0.3,
-            jump: 5.0,
+            jump: crate::scene::beads::DEFAULT_GAP,
             subsample: 1,
             margin: None,
             dwell_weight: 10.0,

@@ -59,6 +59,18 @@ pub fn top_lift(width: f64) -> f64 {
 /// bead rests on, and the nozzle axis alone orients it.
 pub const MATERIAL_MAX_DEG: f64 = 75.0;
 
+/// Consecutive waypoints farther apart than this (mm) are not joined by a
+/// bead by default: the planner starts a new section there
+/// ([`crate::plan::PlanOptions::jump`]).
+pub const DEFAULT_GAP: f64 = 5.0;
+
+/// The layer heights a bead may have for a machine whose default layer
+/// height is `default_height` (mm): a twentieth of it to four times it.
+/// The same range bounds the heights extrusion measures.
+pub fn height_range(default_height: f64) -> [f64; 2] {
+    [0.05 * default_height, 4.0 * default_height]
+}
+
 /// How beads are made.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BeadSettings {
@@ -71,6 +83,33 @@ pub struct BeadSettings {
     /// Consecutive waypoints of a layer farther apart than this (mm) are
     /// not joined by a bead (the planner travels between them).
     pub gap: f64,
+}
+
+impl BeadSettings {
+    /// Beads of the extrusion `width` (mm), layer heights in the
+    /// [`height_range`] of `default_height`, joining waypoints up to `gap`
+    /// apart.
+    pub fn new(width: f64, default_height: f64, gap: f64) -> Self {
+        BeadSettings {
+            width,
+            height: height_range(default_height),
+            gap,
+        }
+    }
+
+    /// The beads `machine` lays: its extrusion width and default layer
+    /// height, waypoints up to [`DEFAULT_GAP`] apart joined.
+    pub fn of_machine(machine: &crate::kinematics::Machine) -> Self {
+        let e = &machine.extrusion;
+        BeadSettings::new(e.width, e.default_height, DEFAULT_GAP)
+    }
+}
+
+impl Default for BeadSettings {
+    /// The default machine's beads ([`BeadSettings::of_machine`]).
+    fn default() -> Self {
+        BeadSettings::of_machine(&crate::kinematics::Machine::default())
+    }
 }
 
 /// The toolpath a part is deposited along, in print order.

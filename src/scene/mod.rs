@@ -15,6 +15,7 @@ pub mod slab;
 mod stamp;
 
 pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
+pub use beads::BeadSettings;
 pub use head::{Head, HeadConfig};
 pub use head_cache::CacheOutcome;
 pub use stamp::{cutoff, stamp_of};
@@ -45,6 +46,52 @@ pub enum SceneError {
     Internal(String),
 }
 
+/// What the printed-so-far part is modelled from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum PartModel {
+    /// Each layer's surface where the toolpath gives one, the beads it
+    /// deposits where it does not.
+    #[default]
+    Auto,
+    /// Layer surfaces only: a layer without one adds no material.
+    Surfaces,
+    /// The beads the toolpath deposits ([`beads`]), surfaces ignored.
+    Beads,
+}
+
+/// What a scene's part was made of, as reports name it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PartSource {
+    /// Every layer's surface.
+    Surfaces,
+    /// The deposited beads of every layer.
+    Beads,
+    /// Surfaces where given, beads elsewhere.
+    SurfacesAndBeads,
+    /// Nothing but the platform: no layer gave a surface or a bead.
+    PlatformOnly,
+}
+
+impl PartSource {
+    /// The name reports use (`surfaces`, `beads`, `surfaces+beads`,
+    /// `platform only`).
+    pub fn name(self) -> &'static str {
+        match self {
+            PartSource::Surfaces => "surfaces",
+            PartSource::Beads => "beads",
+            PartSource::SurfacesAndBeads => "surfaces+beads",
+            PartSource::PlatformOnly => "platform only",
+        }
+    }
+
+    /// The warning a run gives when only the platform was checked.
+    pub fn warning(self) -> Option<&'static str> {
+        (self == PartSource::PlatformOnly).then_some(
+            "no part was modelled (no layer surface and no printing segment): only the platform was checked",
+        )
+    }
+}
+
 /// Scene construction settings.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SceneConfig {
@@ -56,6 +103,10 @@ pub struct SceneConfig {
     /// Keep the head's derived data between runs in the user's cache
     /// folder ([`head_cache::cache_dir`]); off by default, on in the CLI.
     pub head_cache: bool,
+    /// What the part is modelled from.
+    pub part: PartModel,
+    /// How beads are made, where the part is modelled from them.
+    pub beads: BeadSettings,
 }
 
 /// A group of part triangles that stay together for the parry backend: the
@@ -98,6 +149,8 @@ pub struct Scene {
     pub waypoint_layers: Vec<u32>,
     /// Where the head's data came from.
     pub head_cache: CacheOutcome,
+    /// What the part was made of.
+    pub part: PartSource,
 }
 
 /// A collision query: the head at `pose`, against everything with
@@ -139,24 +192,70 @@ impl Query {
     }
 }
 
-/// The platform and every layer surface as stamped groups: welded,
-/// degenerate triangles dropped, subdivided to `max_edge`, each layer
-/// triangle stamped by its nearest waypoint ([`stamp`]); layers in
-/// parallel, in layer order.
-fn part_groups(toolpath: &Toolpath, platform: Mesh, max_edge: f32) -> Vec<PartGroup> {
-    let mut groups = Vec::with_capacity(toolpath.layers.len() + 1);
+/// The platform and the part as stamped groups, in layer order: each
+/// layer's surface or its beads, as `model` and the toolpath have them
+/// ([`part_sources`]), and what the part was made of.
+fn part_groups(
+    toolpath: &Toolpath,
+    platform: Mesh,
+    max_edge: f32,
+    cfg: &SceneConfig,
+) -> (Vec<PartGroup>, PartSource) {
     let platform = platform.subdivided(max_edge);
+    let use_surface = part_sources(toolpath, cfg.part);
+    let (surfaces, beads) = rayon::join(
+        || surface_groups(toolpath, &use_surface, max_edge),
+        || bead_groups(toolpath, &use_surface, &platform, cfg),
+    );
+    let source = match (surfaces.is_empty(), beads.is_empty()) {
+        (false, true) => PartSource::Surfaces,
+        (true, false) => PartSource::Beads,
+        (false, false) => PartSource::SurfacesAndBeads,
+        (true, true) => PartSource::PlatformOnly,
+    };
+    let mut layers: Vec<PartGroup> = surfaces.into_iter().chain(beads).collect();
+    layers.sort_by_key(|g| g.layer);
+    let mut groups = Vec::with_capacity(layers.len() + 1);
     groups.push(PartGroup {
         stamps: vec![0; platform.triangles.len()],
         mesh: platform,
         layer: None,
     });
+    groups.extend(layers);
+    (groups, source)
+}
+
+/// Per layer: is its surface the part's material there (`true`), or its
+/// beads? Surfaces win wherever the toolpath gives one, unless `model`
+/// asks for beads; with [`PartModel::Surfaces`] no layer is beads.
+fn part_sources(toolpath: &Toolpath, model: PartModel) -> Vec<bool> {
+    toolpath
+        .layers
+        .iter()
+        .map(|l| {
+            let has = l.surface.as_ref().is_some_and(|s| !s.triangles.is_empty());
+            match model {
+                PartModel::Auto => has,
+                PartModel::Surfaces => true,
+                PartModel::Beads => false,
+            }
+        })
+        .collect()
+}
+
+/// The surfaces of the layers `use_surface` picks: welded, degenerate
+/// triangles dropped, subdivided to `max_edge`, each triangle stamped by
+/// its nearest waypoint ([`stamp`]); layers in parallel, in layer order.
+fn surface_groups(toolpath: &Toolpath, use_surface: &[bool], max_edge: f32) -> Vec<PartGroup> {
     let offsets = toolpath.layer_offsets();
-    let layers: Vec<PartGroup> = toolpath
+    toolpath
         .layers
         .par_iter()
         .enumerate()
         .filter_map(|(k, layer)| {
+            if !use_surface[k] {
+                return None;
+            }
             let surface = layer.surface.as_ref()?;
             let (surface, _) = surface.welded().without_degenerate();
             if surface.triangles.is_empty() || layer.waypoints.is_empty() {
@@ -170,9 +269,34 @@ fn part_groups(toolpath: &Toolpath, platform: Mesh, max_edge: f32) -> Vec<PartGr
                 layer: Some(k),
             })
         })
-        .collect();
-    groups.extend(layers);
-    groups
+        .collect()
+}
+
+/// The beads of the layers `use_surface` leaves to them ([`beads`]),
+/// deposited along the whole toolpath (a bead rests on what is below it,
+/// whatever models that).
+fn bead_groups(
+    toolpath: &Toolpath,
+    use_surface: &[bool],
+    platform: &Mesh,
+    cfg: &SceneConfig,
+) -> Vec<PartGroup> {
+    if use_surface.iter().all(|&s| s) {
+        return Vec::new();
+    }
+    let pos = toolpath.positions();
+    let dir = toolpath.directions();
+    let layer: Vec<usize> = toolpath.iter().map(|(k, _)| k).collect();
+    let path = beads::BeadPath {
+        pos: &pos,
+        dir: &dir,
+        layer: &layer,
+    };
+    beads::deposit(path, platform, &cfg.beads)
+        .groups
+        .into_iter()
+        .filter(|g| g.layer.is_some_and(|k| !use_surface[k]))
+        .collect()
 }
 
 impl Scene {
@@ -214,9 +338,9 @@ impl Scene {
         // The head (its distance grids) and the part's layers do not
         // depend on each other: built side by side.
         let cache = cfg.head_cache.then(head_cache::cache_dir).flatten();
-        let (head, groups) = rayon::join(
+        let (head, (groups, part_source)) = rayon::join(
             || head_cache::load_or_build(head_mesh, &cfg.head, tol, cache.as_deref()),
-            || part_groups(toolpath, platform, max_edge),
+            || part_groups(toolpath, platform, max_edge, cfg),
         );
         let (head, head_cache) = head?;
 
@@ -276,6 +400,7 @@ impl Scene {
             waypoint_queries,
             waypoint_layers,
             head_cache,
+            part: part_source,
         })
     }
 

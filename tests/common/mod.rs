@@ -308,6 +308,7 @@ pub fn margin_cases() -> Vec<MarginCase> {
         },
         max_edge,
         head_cache: false,
+        ..SceneConfig::default()
     };
     let at = |tip: V3, margin: f32| Query {
         pose: pose(tip, [0.0, 0.0, 1.0]),
@@ -391,6 +392,7 @@ pub fn star_scene(r: &mut ChaCha8Rng, rays: usize, spread: f32, lean: [f32; 2]) 
         },
         max_edge: None,
         head_cache: false,
+        ..SceneConfig::default()
     };
     Scene::build(&tp, &head, &platform, &cfg).unwrap()
 }
