@@ -16,7 +16,9 @@ use crate::geometry::{Aabb, Mesh};
 use crate::io::mesh::load_mesh;
 use crate::io::toolpath_folder::load_toolpath;
 use crate::io::{InputError, Placement};
-use crate::scene::{BeadSettings, HeadConfig, PartModel, Scene, SceneConfig, SceneError};
+use crate::scene::{
+    beads, BeadSettings, HeadConfig, PartGroup, PartModel, Scene, SceneConfig, SceneError,
+};
 use crate::toolpath::Toolpath;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -136,7 +138,18 @@ impl LoadedJob {
         if let Some(deg) = spec.tilt_deg {
             toolpath.tilt_directions(deg);
         }
-        let flipped_layers = if spec.keep_normals {
+        let platform = match &spec.platform {
+            Some(p) => load_mesh(p)?,
+            None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
+        };
+        let layers_unknown = toolpath.layers.len() == 1 && toolpath.layers[0].surface.is_none();
+        let mut deposited = None;
+        let flipped_layers = if layers_unknown && spec.part != PartModel::Surfaces {
+            let (stacked, flipped, beads) =
+                stacked(&toolpath, &platform, &spec.beads, !spec.keep_normals);
+            (toolpath, deposited) = (stacked, Some(beads));
+            flipped
+        } else if spec.keep_normals {
             Vec::new()
         } else {
             toolpath.flip_downward_layers()
@@ -145,13 +158,9 @@ impl LoadedJob {
             Some(p) => load_mesh(p)?,
             None => default_head.unwrap_or_else(default_job::default_head),
         };
-        let platform = match &spec.platform {
-            Some(p) => load_mesh(p)?,
-            None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
-        };
         let cfg = scene_config(spec.clearance, spec.part, spec.beads);
         let (scene, beside_result) = rayon::join(
-            || Scene::build(&toolpath, &head, &platform, &cfg),
+            || Scene::build_deposited(&toolpath, &head, &platform, &cfg, deposited),
             || beside(&toolpath),
         );
         let scene = scene.map_err(|source| JobError::Scene {
@@ -178,6 +187,47 @@ impl LoadedJob {
             .map(|&k| self.toolpath.layers[k].name.clone())
             .collect()
     }
+}
+
+/// A toolpath given without its layers (one layer, no surface: a single
+/// file of waypoints in print order) with the layers its beads stack in
+/// ([`beads::stacked_layers`]), and — with `flip` — every nozzle axis
+/// that points into the material below reversed (the data set's
+/// convention reverses whole layers stored upside down; without layers,
+/// the material says which way is up). Returns the layers holding a
+/// reversed axis too, and the beads laid along it, a group per layer.
+pub fn stacked(
+    toolpath: &Toolpath,
+    platform: &Mesh,
+    settings: &BeadSettings,
+    flip: bool,
+) -> (Toolpath, Vec<usize>, Vec<PartGroup>) {
+    let pos = toolpath.positions();
+    let dir = toolpath.directions();
+    let layer: Vec<usize> = toolpath.iter().map(|(k, _)| k).collect();
+    let path = beads::BeadPath {
+        pos: &pos,
+        dir: &dir,
+        layer: &layer,
+    };
+    let stacking = beads::stacked_layers(path, platform, settings);
+    let mut out = toolpath.relayered(&stacking.layer_of);
+    let mut flipped = Vec::new();
+    if flip {
+        let mut g = 0;
+        for (k, l) in out.layers.iter_mut().enumerate() {
+            for w in &mut l.waypoints {
+                if stacking.against[g] {
+                    w.dir = w.dir.map(|c| -c);
+                    if flipped.last() != Some(&k) {
+                        flipped.push(k);
+                    }
+                }
+                g += 1;
+            }
+        }
+    }
+    (out, flipped, stacking.deposit.groups)
 }
 
 /// The scene settings of a loaded job: contact within `clearance` of the

@@ -107,6 +107,52 @@ impl Toolpath {
         }
     }
 
+    /// The same waypoints in layers `layer_of` gives (one per waypoint, in
+    /// print order, non-decreasing, each within one of this toolpath's
+    /// layers). A layer split in parts keeps its name for the first and
+    /// its surface for none (a surface belongs to the whole); the others
+    /// are named after it, `.1`, `.2`, … (a support layer's `S` kept last);
+    /// a toolpath of one layer split into several names them `0`, `1`, ….
+    pub fn relayered(&self, layer_of: &[usize]) -> Toolpath {
+        let from: Vec<usize> = self.iter().map(|(k, _)| k).collect();
+        let waypoints: Vec<Waypoint> = self.iter().map(|(_, w)| *w).collect();
+        let mut split = vec![false; self.layers.len()];
+        for g in 1..from.len() {
+            if from[g] == from[g - 1] && layer_of[g] != layer_of[g - 1] {
+                split[from[g]] = true;
+            }
+        }
+        let mut layers: Vec<Layer> = Vec::new();
+        let mut part = 0;
+        for (g, w) in waypoints.into_iter().enumerate() {
+            let new_layer = g == 0 || layer_of[g] != layer_of[g - 1];
+            if new_layer {
+                let source = &self.layers[from[g]];
+                part = if g > 0 && from[g] == from[g - 1] {
+                    part + 1
+                } else {
+                    0
+                };
+                let split = split[from[g]];
+                let name = match (self.layers.len(), part) {
+                    (1, _) if split => layers.len().to_string(),
+                    (_, 0) => source.name.clone(),
+                    _ => match source.name.strip_suffix('S') {
+                        Some(base) => format!("{base}.{part}S"),
+                        None => format!("{}.{part}", source.name),
+                    },
+                };
+                layers.push(Layer {
+                    name,
+                    waypoints: Vec::new(),
+                    surface: (!split).then(|| source.surface.clone()).flatten(),
+                });
+            }
+            layers.last_mut().expect("a layer").waypoints.push(w);
+        }
+        Toolpath { layers }
+    }
+
     /// Global index of each layer's first waypoint.
     pub fn layer_offsets(&self) -> Vec<usize> {
         let mut acc = 0;

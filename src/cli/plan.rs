@@ -184,9 +184,9 @@ pub fn run(a: PlanArgs) -> Result<()> {
     // Stages 1 and 2 need only the toolpath: they run while the scene is
     // built, and the GPU opens meanwhile.
     let opening = a.backend.open();
-    let (job, prepared) = a
-        .scene
-        .load_beside(&machine, |toolpath| Prepared::new(toolpath, &machine, &opts))?;
+    let (job, prepared) = a.scene.load_beside(&machine, |toolpath| {
+        Prepared::new(toolpath, &machine, &opts)
+    })?;
     let backend = a
         .backend
         .build_with(opening, &job.scene, !a.quiet, Default::default())?;

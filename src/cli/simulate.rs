@@ -79,7 +79,11 @@ fn load_scene(a: &SimulateArgs, machine: &Machine) -> Result<(String, Toolpath, 
         &tp,
         &head,
         &load_mesh(platform)?,
-        &scene_config(a.scene.clearance, PartModel::Auto, BeadSettings::of_machine(machine)),
+        &scene_config(
+            a.scene.clearance,
+            PartModel::Auto,
+            BeadSettings::of_machine(machine),
+        ),
     )?;
     Ok(("platform only".into(), tp, scene))
 }

@@ -14,8 +14,8 @@ mod nearest;
 pub mod slab;
 mod stamp;
 
-pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
 pub use beads::BeadSettings;
+pub use gpu_types::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle};
 pub use head::{Head, HeadConfig};
 pub use head_cache::CacheOutcome;
 pub use stamp::{cutoff, stamp_of};
@@ -119,9 +119,28 @@ pub struct PartGroup {
     pub stamps: Vec<u32>,
     /// Layer index, `None` for the platform.
     pub layer: Option<usize>,
+    /// What the triangles are.
+    pub kind: GroupKind,
+}
+
+/// What a [`PartGroup`]'s triangles are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GroupKind {
+    /// The platform's.
+    Platform,
+    /// A layer surface's.
+    Surface,
+    /// Bead solids ([`beads`]), twelve triangles a bead.
+    Beads,
 }
 
 impl PartGroup {
+    /// Is triangle `i` a wall of a solid (a bead's side or end), whose
+    /// normal says nothing of which way the material lies thin?
+    pub fn is_wall(&self, i: usize) -> bool {
+        self.kind == GroupKind::Beads && beads::is_wall(i)
+    }
+
     /// Smallest and largest stamp in the group.
     pub fn stamp_range(&self) -> (u32, u32) {
         let lo = self.stamps.iter().copied().min().unwrap_or(u32::MAX);
@@ -200,12 +219,19 @@ fn part_groups(
     platform: Mesh,
     max_edge: f32,
     cfg: &SceneConfig,
+    deposited: Option<Vec<PartGroup>>,
 ) -> (Vec<PartGroup>, PartSource) {
     let platform = platform.subdivided(max_edge);
     let use_surface = part_sources(toolpath, cfg.part);
     let (surfaces, beads) = rayon::join(
         || surface_groups(toolpath, &use_surface, max_edge),
-        || bead_groups(toolpath, &use_surface, &platform, cfg),
+        || match deposited {
+            Some(groups) => groups
+                .into_iter()
+                .filter(|g| g.layer.is_some_and(|k| !use_surface[k]))
+                .collect(),
+            None => bead_groups(toolpath, &use_surface, &platform, cfg),
+        },
     );
     let source = match (surfaces.is_empty(), beads.is_empty()) {
         (false, true) => PartSource::Surfaces,
@@ -220,6 +246,7 @@ fn part_groups(
         stamps: vec![0; platform.triangles.len()],
         mesh: platform,
         layer: None,
+        kind: GroupKind::Platform,
     });
     groups.extend(layers);
     (groups, source)
@@ -267,6 +294,7 @@ fn surface_groups(toolpath: &Toolpath, use_surface: &[bool], max_edge: f32) -> V
                 mesh,
                 stamps,
                 layer: Some(k),
+                kind: GroupKind::Surface,
             })
         })
         .collect()
@@ -308,6 +336,20 @@ impl Scene {
         platform: &Mesh,
         cfg: &SceneConfig,
     ) -> Result<Scene, SceneError> {
+        Scene::build_deposited(toolpath, head_mesh, platform, cfg, None)
+    }
+
+    /// [`Scene::build`] with the beads of the toolpath already laid
+    /// (`deposited`: one group per layer, as [`beads::stacked_layers`]
+    /// lays them while it finds the layers), where the part is modelled
+    /// from beads.
+    pub fn build_deposited(
+        toolpath: &Toolpath,
+        head_mesh: &Mesh,
+        platform: &Mesh,
+        cfg: &SceneConfig,
+        deposited: Option<Vec<PartGroup>>,
+    ) -> Result<Scene, SceneError> {
         let (platform, _) = platform.welded().without_degenerate();
         if platform.triangles.is_empty() {
             return Err(SceneError::Empty(
@@ -340,7 +382,7 @@ impl Scene {
         let cache = cfg.head_cache.then(head_cache::cache_dir).flatten();
         let (head, (groups, part_source)) = rayon::join(
             || head_cache::load_or_build(head_mesh, &cfg.head, tol, cache.as_deref()),
-            || part_groups(toolpath, platform, max_edge, cfg),
+            || part_groups(toolpath, platform, max_edge, cfg, deposited),
         );
         let (head, head_cache) = head?;
 
@@ -376,8 +418,17 @@ impl Scene {
             });
         let part = bvh::build(&soup, 4, head_extent * bvh::LAYER_LIFT_PER_HEAD)?;
         drop(soup);
+        // (The soup numbers the groups' triangles in group order.)
+        let walls: Vec<bool> = if groups.iter().any(|g| g.kind == GroupKind::Beads) {
+            groups
+                .iter()
+                .flat_map(|g| (0..g.stamps.len()).map(|i| g.is_wall(i)))
+                .collect()
+        } else {
+            Vec::new()
+        };
         let mut part_nodes = bvh::sphere_nodes(&part);
-        slab::add_slabs(&part, &mut part_nodes);
+        slab::add_slabs(&part, &mut part_nodes, &walls);
         let part_tris = part.triangles;
 
         let mut waypoint_queries = Vec::with_capacity(toolpath.waypoint_count());

@@ -42,7 +42,13 @@ const EXACT_SLAB_TRIS: u32 = 64;
 /// its interval is exact over the vertices of subtrees of at most
 /// `EXACT_SLAB_TRIS` triangles and, above, the tighter of its box's and
 /// its children's slabs' (`child_interval`).
-pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
+///
+/// `walls[s]` marks the soup's triangle `s` (its `source`) as a wall of a
+/// solid (a bead's sides and ends) whose normal says nothing of which way
+/// the node is thin: it is left out of the normal (an empty slice: none
+/// is).
+pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode], walls: &[bool]) {
+    let is_wall = |t: &crate::scene::GpuTriangle| walls.get(t.source as usize) == Some(&true);
     let nodes = &bvh.nodes;
     // Normals, children first (the depth-first layout stores every child
     // after its parent).
@@ -51,6 +57,7 @@ pub fn add_slabs(bvh: &StampedBvh, spheres: &mut [GpuPartNode]) {
         sum[i] = match nodes[i].leaf_range() {
             Some((first, c)) => bvh.triangles[first as usize..(first + c) as usize]
                 .iter()
+                .filter(|t| !is_wall(t))
                 .fold(DVec3::ZERO, |acc, t| aligned_add(acc, area_normal(t))),
             None => {
                 let l = nodes[i].packed as usize;
@@ -470,7 +477,7 @@ mod tests {
         }
         let tree = bvh::build(&tris, 4, 0.0).unwrap();
         let mut nodes = bvh::sphere_nodes(&tree);
-        add_slabs(&tree, &mut nodes);
+        add_slabs(&tree, &mut nodes, &[]);
         let mut thin_layered = 0;
         for (i, node) in nodes.iter().enumerate() {
             let n = oct_decode(unpack_snorm2x16(node.slab_normal)).map(|x| x as f64);

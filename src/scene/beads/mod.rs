@@ -29,13 +29,18 @@
 //! top is found in a uniform grid of the beads' top faces and the
 //! platform's triangles, cells as large as the search radius.
 
+mod stacking;
+mod top_grid;
+
+pub use stacking::{stacked_layers, Stacking, AGAINST_DEG, STACKED_SHARE};
+pub use top_grid::FIT_WIDTHS;
+
 use super::{stamp_of, PartGroup};
-use crate::geometry::point_triangle_distance::closest_point;
 use crate::geometry::Mesh;
 use glam::DVec3;
 use rayon::prelude::*;
-use rustc_hash::FxHashMap as HashMap;
 use std::ops::Range;
+use top_grid::{Below, TopGrid};
 
 /// Layers looked back for the bead a waypoint rests on (as the layer
 /// heights of surfaces, [`crate::plan::extrusion::LOOKBACK`]).
@@ -57,7 +62,7 @@ pub fn top_lift(width: f64) -> f64 {
 /// layer's normal: nearer to sideways, the nearest material is a
 /// neighbouring bead beside the path (interleaved layers), not the one the
 /// bead rests on, and the nozzle axis alone orients it.
-pub const MATERIAL_MAX_DEG: f64 = 75.0;
+pub const MATERIAL_MAX_DEG: f64 = 60.0;
 
 /// Consecutive waypoints farther apart than this (mm) are not joined by a
 /// bead by default: the planner starts a new section there
@@ -80,6 +85,8 @@ pub struct BeadSettings {
     /// than the first, and the second is how far below the tip the
     /// material it rests on is looked for (and its depth where none is).
     pub height: [f64; 2],
+    /// The machine's default layer height (mm).
+    pub default_height: f64,
     /// Consecutive waypoints of a layer farther apart than this (mm) are
     /// not joined by a bead (the planner travels between them).
     pub gap: f64,
@@ -93,6 +100,7 @@ impl BeadSettings {
         BeadSettings {
             width,
             height: height_range(default_height),
+            default_height,
             gap,
         }
     }
@@ -160,24 +168,19 @@ pub struct Deposit {
 
 /// The beads laid along `path` on `platform`, layer by layer.
 pub fn deposit(path: BeadPath, platform: &Mesh, s: &BeadSettings) -> Deposit {
-    let [lo, hi] = s.height;
-    let mut tops = TopGrid::new(hi);
+    let mut tops = top_grid(s);
     tops.insert_platform(platform);
     let mut groups = Vec::new();
-    let mut heights = vec![(hi, true); path.pos.len()];
+    let mut heights = vec![(s.height[1], true); path.pos.len()];
     for range in path.layers() {
         let layer = path.layer[range.start];
         let below: Vec<Below> = range
             .clone()
             .into_par_iter()
-            .map(|g| tops.below(v(path.pos[g]), layer, hi))
+            .map(|g| tops.below(v(path.pos[g]), layer, s.height[1], LOOKBACK))
             .collect();
         for (g, b) in range.clone().zip(&below) {
-            heights[g] = match b.distance {
-                Some(d) if d >= lo => (d, false),
-                Some(_) => (lo, true),
-                None => (hi, true),
-            };
+            heights[g] = height_of(b, s.height);
         }
         let beads: Vec<Vec<Bead>> = range
             .clone()
@@ -192,25 +195,35 @@ pub fn deposit(path: BeadPath, platform: &Mesh, s: &BeadSettings) -> Deposit {
         if beads.is_empty() {
             continue;
         }
+        let first = tops.strip_count();
         for b in beads.iter().filter(|b| b.primary) {
-            tops.insert_strip(b.path_strip(s.width), layer);
+            tops.insert_strip(b.path_strip(s.width), layer, b.path);
         }
+        tops.fit_layer(first, layer);
         groups.push(group_of(&beads, layer));
     }
     Deposit { groups, heights }
 }
 
-fn v(a: [f64; 3]) -> DVec3 {
-    DVec3::from_array(a)
+/// The grid the tops are listed in: cubes one and a half bead widths
+/// wide, so that the layer below a waypoint is found in the cells next to
+/// its own; surfaces fitted over [`FIT_WIDTHS`] bead widths.
+fn top_grid(s: &BeadSettings) -> TopGrid {
+    TopGrid::new(1.5 * s.width, FIT_WIDTHS * s.width)
 }
 
-/// What lies below a waypoint: the distance to the nearest earlier top
-/// (or the platform) within the search radius, and the unit direction
-/// from it to the tip.
-#[derive(Clone, Copy, Debug, Default)]
-struct Below {
-    distance: Option<f64>,
-    up: Option<DVec3>,
+/// A waypoint's layer height from what lies below it, clamped to
+/// `[lo, hi]`, and whether the clamp decided it.
+fn height_of(below: &Below, [lo, hi]: [f64; 2]) -> (f64, bool) {
+    match below.distance {
+        Some(d) if d >= lo => (d, false),
+        Some(_) => (lo, true),
+        None => (hi, true),
+    }
+}
+
+pub(super) fn v(a: [f64; 3]) -> DVec3 {
+    DVec3::from_array(a)
 }
 
 /// One bead box: the segment's stamp, its corners (top four, then the
@@ -224,6 +237,8 @@ struct Bead {
     corners: [DVec3; 8],
     up: DVec3,
     primary: bool,
+    /// The segment it is laid along.
+    path: [DVec3; 2],
 }
 
 impl Bead {
@@ -246,16 +261,14 @@ fn segment_beads(
 ) -> Vec<Bead> {
     let (a, b) = (v(path.pos[g - 1]), v(path.pos[g]));
     let t = (b - a).normalize();
-    let nozzle = v(path.dir[g - 1]) + v(path.dir[g]);
     let depth = h_a.max(h_b);
     let mut ups = Vec::with_capacity(2);
     let material = match (below_a.up, below_b.up) {
-        (Some(x), Some(y)) => Some(x + y),
+        (Some(x), Some(y)) => across(x + y, t).or(Some(y)),
         (x, y) => x.or(y),
     };
-    let plausible = |m: &DVec3| {
-        m.normalize_or_zero().dot(nozzle.normalize_or_zero()) >= MATERIAL_MAX_DEG.to_radians().cos()
-    };
+    let nozzle = nozzle_axis(path.dir[g - 1], path.dir[g], material);
+    let plausible = |m: &DVec3| m.dot(nozzle) >= MATERIAL_MAX_DEG.to_radians().cos();
     if let Some(up) = material.filter(plausible).and_then(|m| across(m, t)) {
         ups.push(up);
     }
@@ -275,15 +288,35 @@ fn segment_beads(
             corners: box_corners(a, b, t, up, width, depth),
             up,
             primary: i == 0,
+            path: [a, b],
         })
         .collect()
 }
 
-/// `u` made perpendicular to `t` and unit, if it is not along `t`.
+/// The unit nozzle axis over a segment whose ends have the axes `a` and
+/// `b`: their mean, or `b` alone where they point opposite ways (a single
+/// waypoint stored upside down), turned to the side of `material` (the
+/// unit direction from the material below) when that is known, so that a
+/// bead never hangs above the path it is laid along.
+fn nozzle_axis(a: [f64; 3], b: [f64; 3], material: Option<DVec3>) -> DVec3 {
+    let (a, b) = (v(a).normalize_or_zero(), v(b).normalize_or_zero());
+    let axis = if a.dot(b) >= 0.0 {
+        (a + b).normalize_or_zero()
+    } else {
+        b
+    };
+    match material {
+        Some(m) if axis.dot(m) < 0.0 => -axis,
+        _ => axis,
+    }
+}
+
+/// `u` made perpendicular to the unit `t` and unit, if it is not along `t`
+/// (nor nearly zero).
 fn across(u: DVec3, t: DVec3) -> Option<DVec3> {
     let p = u - t * u.dot(t);
     let l = p.length();
-    (l > 1e-9 * u.length().max(1e-300)).then(|| p / l)
+    (l > 1e-6).then(|| p / l)
 }
 
 /// The eight corners of the box over the segment `a → b` (unit direction
@@ -327,6 +360,12 @@ const BOX_TRIANGLES: [[u32; 3]; 12] = [
     [3, 4, 0],
 ];
 
+/// Is triangle `i` of a group of beads one of a bead's walls (sides and
+/// ends, [`BOX_TRIANGLES`] after its top and bottom)?
+pub fn is_wall(i: usize) -> bool {
+    i % BOX_TRIANGLES.len() >= 4
+}
+
 /// A layer's beads as one stamped group.
 fn group_of(beads: &[Bead], layer: usize) -> PartGroup {
     let mut mesh = Mesh {
@@ -346,110 +385,19 @@ fn group_of(beads: &[Bead], layer: usize) -> PartGroup {
         mesh,
         stamps,
         layer: Some(layer),
-    }
-}
-
-/// A triangle the search for the material below may find: its corners and
-/// its layer (`None`: the platform).
-#[derive(Clone, Copy, Debug)]
-struct Top {
-    corners: [DVec3; 3],
-    layer: Option<usize>,
-}
-
-/// The beads' top faces and the platform in a uniform grid of cubes
-/// `cell` mm wide: a triangle is listed in every cell its bounding box
-/// touches, so a search within `cell` of a point reads the 27 cells around
-/// it.
-struct TopGrid {
-    cell: f64,
-    tops: Vec<Top>,
-    cells: HashMap<[i32; 3], Vec<u32>>,
-}
-
-impl TopGrid {
-    fn new(cell: f64) -> Self {
-        TopGrid {
-            cell: cell.max(1e-3),
-            tops: Vec::new(),
-            cells: HashMap::default(),
-        }
-    }
-
-    fn cell_of(&self, p: DVec3) -> [i32; 3] {
-        (p / self.cell).floor().as_ivec3().to_array()
-    }
-
-    fn insert(&mut self, corners: [DVec3; 3], layer: Option<usize>) {
-        let i = self.tops.len() as u32;
-        self.tops.push(Top { corners, layer });
-        let lo = self.cell_of(corners[0].min(corners[1]).min(corners[2]));
-        let hi = self.cell_of(corners[0].max(corners[1]).max(corners[2]));
-        for x in lo[0]..=hi[0] {
-            for y in lo[1]..=hi[1] {
-                for z in lo[2]..=hi[2] {
-                    self.cells.entry([x, y, z]).or_default().push(i);
-                }
-            }
-        }
-    }
-
-    fn insert_platform(&mut self, platform: &Mesh) {
-        for i in 0..platform.triangles.len() {
-            let c = platform.corners(i).map(|p| p.map(f64::from)).map(v);
-            self.insert(c, None);
-        }
-    }
-
-    fn insert_strip(&mut self, c: [DVec3; 4], layer: usize) {
-        self.insert([c[0], c[1], c[2]], Some(layer));
-        self.insert([c[0], c[2], c[3]], Some(layer));
-    }
-
-    /// The nearest top below `p` (a waypoint of `layer`) within `radius`:
-    /// the platform, or a bead of the [`LOOKBACK`] layers before `layer`.
-    fn below(&self, p: DVec3, layer: usize, radius: f64) -> Below {
-        let c = self.cell_of(p);
-        let oldest = layer.saturating_sub(LOOKBACK);
-        let mut best: Option<(f64, DVec3)> = None;
-        for x in c[0] - 1..=c[0] + 1 {
-            for y in c[1] - 1..=c[1] + 1 {
-                for z in c[2] - 1..=c[2] + 1 {
-                    let Some(list) = self.cells.get(&[x, y, z]) else {
-                        continue;
-                    };
-                    for &i in list {
-                        let top = &self.tops[i as usize];
-                        if top.layer.is_some_and(|l| l < oldest || l >= layer) {
-                            continue;
-                        }
-                        let [a, b, c] = top.corners.map(|q| q.to_array());
-                        let q = v(closest_point(p.to_array(), a, b, c));
-                        let d = (p - q).length();
-                        if d <= radius && best.is_none_or(|(bd, _)| d < bd) {
-                            best = Some((d, q));
-                        }
-                    }
-                }
-            }
-        }
-        match best {
-            Some((d, q)) => Below {
-                distance: Some(d),
-                up: (d > 1e-9).then(|| (p - q) / d),
-            },
-            None => Below::default(),
-        }
+        kind: super::GroupKind::Beads,
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use rustc_hash::FxHashMap as HashMap;
 
     const SETTINGS: BeadSettings = BeadSettings {
         width: 0.7,
         height: [0.025, 2.0],
+        default_height: 0.5,
         gap: 5.0,
     };
 
