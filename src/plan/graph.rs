@@ -69,12 +69,23 @@ pub(super) fn route(columns: Columns, prover: &Prover) -> Result<Route, PlanErro
     let mut search = Search::new(columns);
     let all: Vec<usize> = (0..search.sections.len()).collect();
     search.solve(&all, prover)?;
-    let changed = search.spread(prover)?;
-    if !changed.is_empty() {
+    let base = search.columns.setup.opts.spread_tolerance;
+    for widen in SPREAD_WIDENING {
+        let changed = search.spread(prover, base * widen)?;
+        if changed.is_empty() {
+            break;
+        }
         search.solve(&changed, prover)?;
     }
     search.into_route()
 }
+
+/// The spread's tolerance, as multiples of [`super::PlanOptions::spread_tolerance`],
+/// tried in turn while rotations the extruder cannot follow remain: a
+/// turn too fast for the waypoints around it to absorb within the first
+/// (a single waypoint whose own orientation collides, its neighbours' not)
+/// is spread over a wider tube.
+const SPREAD_WIDENING: [f64; 3] = [1.0, 2.0, 4.0];
 
 /// What a section needs solved next: a repair of the windows around these
 /// columns, or (`None`) the whole section.
@@ -443,8 +454,8 @@ impl<'a> Search<'a> {
     /// Offer C values that spread too-fast turns ([`spread`]) as extra
     /// candidates where they are feasible and free. Returns the sections
     /// that got any.
-    fn spread(&mut self, prover: &Prover) -> Result<Vec<usize>, PlanError> {
-        let offers = self.spread_offers();
+    fn spread(&mut self, prover: &Prover, tol: f64) -> Result<Vec<usize>, PlanError> {
+        let offers = self.spread_offers(tol);
         let items: Vec<(Axes, u32)> = offers.iter().map(|&(_, g, a)| (a, cutoff(g))).collect();
         let hits = prover.poses(&items)?;
         let mut changed = Vec::new();
@@ -459,9 +470,8 @@ impl<'a> Search<'a> {
     /// The configurations that spread the too-fast turns of every printed
     /// run of the paths ([`spread::spread_run`]), where they are feasible
     /// and C within its range: `(section, waypoint, axes)`.
-    fn spread_offers(&self) -> Vec<(usize, usize, Axes)> {
+    fn spread_offers(&self, tol: f64) -> Vec<(usize, usize, Axes)> {
         let setup = self.columns.setup;
-        let tol = setup.opts.spread_tolerance;
         let mut offers = Vec::new();
         for (s, r) in self.sections.iter().enumerate() {
             let (p, cm) = (&self.paths[s], &self.models[s]);

@@ -268,11 +268,17 @@ fn segment_beads(
         (x, y) => x.or(y),
     };
     let nozzle = nozzle_axis(path.dir[g - 1], path.dir[g], material);
-    let plausible = |m: &DVec3| m.dot(nozzle) >= MATERIAL_MAX_DEG.to_radians().cos();
+    // A surface fitted below orients the bead alone; a mere direction to
+    // the nearest material only when it is plausible, the nozzle too.
+    let fitted = [below_a, below_b]
+        .iter()
+        .all(|b| b.up.is_none() || b.fitted)
+        && material.is_some();
+    let plausible = |m: &DVec3| fitted || m.dot(nozzle) >= MATERIAL_MAX_DEG.to_radians().cos();
     if let Some(up) = material.filter(plausible).and_then(|m| across(m, t)) {
         ups.push(up);
     }
-    if let Some(up) = across(nozzle, t) {
+    if let (false, Some(up)) = (fitted && !ups.is_empty(), across(nozzle, t)) {
         let agree = AGREE_DEG.to_radians().cos();
         if ups.first().is_none_or(|m| m.dot(up) < agree) {
             ups.push(up);

@@ -50,6 +50,9 @@ struct Strip {
 pub(super) struct Below {
     pub distance: Option<f64>,
     pub up: Option<DVec3>,
+    /// Is `up` the normal of the surface there (the platform's, or one
+    /// fitted through the paths below), not only the direction to it?
+    pub fitted: bool,
 }
 
 /// The tops and the platform, in cubes `cell` mm wide.
@@ -275,7 +278,8 @@ impl TopGrid {
             }
             Some(s) => self.strips[s as usize].normal,
         };
-        let up = match normal.and_then(|n| n.try_normalize()) {
+        let fitted = normal.and_then(|n| n.try_normalize());
+        let up = match fitted {
             Some(n) if n.dot(away) < 0.0 => Some(-n),
             Some(n) => Some(n),
             None => (d > 1e-9).then(|| away / d),
@@ -283,6 +287,7 @@ impl TopGrid {
         let below = Below {
             distance: Some(d),
             up,
+            fitted: fitted.is_some(),
         };
         (below, stands)
     }
