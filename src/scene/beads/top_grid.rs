@@ -326,6 +326,20 @@ impl TopGrid {
     }
 }
 
+/// Is `p` over the bead whose top is `c` (four corners counter-clockwise
+/// seen from above), laid along `path`, as [`TopGrid::below_and_over`]
+/// asks it?
+pub(super) fn stands_over_strip(
+    p: DVec3,
+    c: &[DVec3; 4],
+    path: [DVec3; 2],
+    heights: [f64; 2],
+    across: f64,
+) -> bool {
+    let reach = heights[1] + across + (path[1] - path[0]).length();
+    (p - path[0]).length() <= reach && stands_over(p, &[c[0], c[1], c[2]], path, heights, across)
+}
+
 /// Is `p` between `low` and `high` above the plane of the top `[a, b, c]`
 /// (counter-clockwise seen from above) of a bead laid along `[s, e]`, its
 /// foot within `across` of that segment and not beyond its ends?
