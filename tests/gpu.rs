@@ -115,6 +115,46 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
     }
 }
 
+/// Scenes modelled from beads (no layer surfaces; bead walls kept out of
+/// the slab normals) give the GPU the CPU's verdicts, margin by margin.
+#[test]
+fn bead_scenes_gpu_matches_cpu() {
+    use maamplan::default_job::cone_head;
+    use maamplan::scene::beads::BeadSettings;
+    use maamplan::scene::{HeadConfig, PartModel, PartSource};
+    for seed in 0..2u64 {
+        let mut r = rng(140 + seed);
+        let part = printed_part(&mut r, 3, 0.5, 0.7, 30.0 * seed as f64);
+        let cfg = SceneConfig {
+            head: HeadConfig {
+                tip_clearance: 0.2,
+                grid_resolution: 48,
+            },
+            head_cache: false,
+            part: PartModel::Beads,
+            beads: BeadSettings::new(0.7, 0.5, 5.0),
+            ..SceneConfig::default()
+        };
+        let head = cone_head(4.0, 5.0, 14.0, 16);
+        let scene = Scene::build(&part.toolpath, &head, &part.platform, &cfg).unwrap();
+        assert_eq!(scene.part, PartSource::Beads);
+        let Some(g) = gpu(&scene, batches_of(128)) else {
+            return;
+        };
+        let base = random_queries(&mut r, &scene, 400);
+        let margins = MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED);
+        for (margin, slope) in margins {
+            let queries = with_slope(&base, margin, slope);
+            let what = format!("beads, seed {seed}, margin {margin} + {slope} per mm");
+            let hits = agree(&scene, &queries, &g, &what);
+            assert!(
+                hits > 20 && hits + 20 < queries.len(),
+                "{what}: {hits} colliding"
+            );
+        }
+    }
+}
+
 #[test]
 fn gpu_verdicts_flip_at_each_poses_own_distance() {
     let mut r = rng(120);

@@ -611,3 +611,108 @@ pub fn write_job(dir: &Path, toolpath: &Toolpath, head: &Mesh, platform: &Mesh) 
     std::fs::write(dir.join("platform.obj"), mesh_obj(platform)).unwrap();
     tp
 }
+
+/// A part printed in `layers` parallel curved layers `dz` apart on a
+/// platform of the same shape, given as waypoints only (no surfaces), and
+/// the material it deposits, sampled densely.
+pub struct PrintedPart {
+    /// The toolpath: each layer's passes side by side `width` apart, no
+    /// surfaces.
+    pub toolpath: Toolpath,
+    /// The platform: the surface the first layer rests on.
+    pub platform: Mesh,
+    /// Points inside the deposited material (a bead `width` wide and `dz`
+    /// deep under each printed segment, following the true surface), each
+    /// with the stamp of the segment that laid it.
+    pub material: Vec<(V3, u32)>,
+}
+
+/// [`PrintedPart`] over a random bumpy surface (slopes up to about 30°),
+/// with every layer's nozzle axes tilted `tilt_deg` from the surface normal
+/// in a random direction: the material follows the surface whatever the
+/// nozzle does.
+pub fn printed_part(
+    rng: &mut ChaCha8Rng,
+    layers: usize,
+    dz: f64,
+    width: f64,
+    tilt_deg: f64,
+) -> PrintedPart {
+    use glam::DVec3;
+    let ax: f64 = rng.random_range(0.1..0.3);
+    let ay: f64 = rng.random_range(0.1..0.3);
+    let amp: f64 = rng.random_range(0.5..1.5);
+    let bump = move |x: f64, y: f64| amp * (ax * x).sin() * (ay * y).cos();
+    let normal = |x: f64, y: f64| {
+        let h = 1e-4;
+        let gx = (bump(x + h, y) - bump(x - h, y)) / (2.0 * h);
+        let gy = (bump(x, y + h) - bump(x, y - h)) / (2.0 * h);
+        DVec3::new(-gx, -gy, 1.0).normalize()
+    };
+    let platform = height_patch([-30.0, 30.0], [-30.0, 30.0], 120, |x, y| {
+        bump(x as f64, y as f64) as f32
+    });
+    let mut toolpath = Toolpath::default();
+    let mut path: Vec<(DVec3, DVec3)> = Vec::new();
+    for k in 0..layers {
+        let z = (k + 1) as f64 * dz;
+        let lean = DVec3::new(
+            rng.random_range(-1.0..1.0),
+            rng.random_range(-1.0..1.0),
+            0.0,
+        );
+        let mut waypoints = Vec::new();
+        for row in 0..12 {
+            let y = -4.0 + width * row as f64;
+            for col in 0..17 {
+                let x = if row % 2 == 0 {
+                    -8.0 + col as f64
+                } else {
+                    8.0 - col as f64
+                };
+                let n = normal(x, y);
+                let off = (lean - n * lean.dot(n)).normalize_or(DVec3::X);
+                let t = tilt_deg.to_radians();
+                let dir = n * t.cos() + off * t.sin();
+                let pos = DVec3::new(x, y, bump(x, y) + z);
+                waypoints.push(Waypoint {
+                    pos: pos.as_vec3().to_array(),
+                    dir: dir.as_vec3().to_array(),
+                });
+                path.push((pos, n));
+            }
+        }
+        toolpath.layers.push(Layer {
+            name: k.to_string(),
+            waypoints,
+            surface: None,
+        });
+    }
+    // The material under each segment within a layer (consecutive
+    // waypoints of a layer are at most a pass width plus 1 mm apart).
+    let per_layer = path.len() / layers.max(1);
+    let mut material = Vec::new();
+    for g in 1..path.len() {
+        if g % per_layer == 0 {
+            continue;
+        }
+        let ((a, na), (b, nb)) = (path[g - 1], path[g]);
+        let t = (b - a).normalize();
+        for s in 0..=4 {
+            let at = a + (b - a) * (s as f64 / 4.0);
+            let n = (na * (4 - s) as f64 + nb * s as f64).normalize();
+            let side = t.cross(n).normalize();
+            for u in [-0.4, 0.0, 0.4] {
+                for d in [0.05, 0.5, 0.9] {
+                    let p = at + side * (u * width) - n * (d * dz * n.z);
+                    material.push((p.as_vec3().to_array(), maamplan::scene::stamp_of(g)));
+                }
+            }
+        }
+    }
+    PrintedPart {
+        toolpath,
+        platform,
+        material,
+    }
+}

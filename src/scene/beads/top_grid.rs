@@ -1,5 +1,5 @@
-//! What a bead rests on: the tops of the beads laid so far and the
-//! platform, in a uniform grid, searched for the nearest top below a
+//! What a bead rests on: the tops of the beads laid so far, in a uniform
+//! grid, and the platform, in parry's BVH, searched for the nearest top below a
 //! waypoint, for the surface those tops lie on, and for whether a waypoint
 //! stands over a bead of its own layer.
 //!
@@ -13,6 +13,7 @@ use super::v;
 use crate::geometry::point_triangle_distance::closest_point;
 use crate::geometry::Mesh;
 use glam::DVec3;
+use parry3d::shape::{CompositeShapeRef, TriMesh};
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 
@@ -21,16 +22,15 @@ use rustc_hash::FxHashMap as HashMap;
 /// enough to reach the passes beside it.
 pub const FIT_WIDTHS: f64 = 2.2;
 
-/// A triangle a search may find: a bead's top (half of its strip) or one
-/// of the platform's.
+/// A triangle a search may find: half of a bead's top.
 #[derive(Clone, Copy, Debug)]
 struct Top {
     corners: [DVec3; 3],
     /// The centre and radius of a sphere holding the corners.
     centre: DVec3,
     radius: f64,
-    /// The bead's strip; `None`: the platform.
-    strip: Option<u32>,
+    /// The bead's strip.
+    strip: u32,
 }
 
 /// A bead's top as laid: the segment along its middle, its layer, and
@@ -55,9 +55,12 @@ pub(super) struct Below {
     pub fitted: bool,
 }
 
-/// The tops and the platform, in cubes `cell` mm wide.
+/// The tops in cubes `cell` mm wide, and the platform in parry's BVH (a
+/// platform is far larger than a bead: listed cell by cell, its triangles
+/// would fill as many cells as its area holds, whatever the toolpath).
 pub(super) struct TopGrid {
     cell: f64,
+    platform: Option<(TriMesh, Mesh)>,
     /// The radius of the fit of [`TopGrid::path_normal`] (mm).
     fit_radius: f64,
     tops: Vec<Top>,
@@ -71,6 +74,7 @@ impl TopGrid {
     pub fn new(cell: f64, fit_radius: f64) -> Self {
         TopGrid {
             cell: cell.max(1e-3),
+            platform: None,
             fit_radius,
             tops: Vec::new(),
             strips: Vec::new(),
@@ -82,7 +86,7 @@ impl TopGrid {
         (p / self.cell).floor().as_ivec3().to_array()
     }
 
-    fn insert(&mut self, corners: [DVec3; 3], strip: Option<u32>) {
+    fn insert(&mut self, corners: [DVec3; 3], strip: u32) {
         let i = self.tops.len() as u32;
         let centre = (corners[0] + corners[1] + corners[2]) / 3.0;
         let radius = corners
@@ -106,12 +110,38 @@ impl TopGrid {
         }
     }
 
-    /// List the platform's triangles.
+    /// Add the platform (replacing any before it).
     pub fn insert_platform(&mut self, platform: &Mesh) {
-        for i in 0..platform.triangles.len() {
-            let c = platform.corners(i).map(|p| v(p.map(f64::from)));
-            self.insert(c, None);
-        }
+        let vertices = platform
+            .vertices
+            .iter()
+            .map(|p| parry3d::math::Vector::new(p[0], p[1], p[2]))
+            .collect();
+        self.platform = TriMesh::new(vertices, platform.triangles.clone())
+            .ok()
+            .map(|t| (t, platform.clone()));
+    }
+
+    /// The nearest point of the platform within `radius` of `p`, its
+    /// distance and the normal of the triangle it lies on. parry finds the
+    /// triangle (in f32); the point is measured again in f64, as the tops
+    /// are.
+    fn platform_below(&self, p: DVec3, radius: f64) -> Option<(f64, DVec3, DVec3)> {
+        let (tree, mesh) = self.platform.as_ref()?;
+        let at = p.as_vec3();
+        let point = parry3d::math::Vector::new(at.x, at.y, at.z);
+        let slack = (radius * 1e-4).max(1e-3) as f32;
+        let (i, _) =
+            CompositeShapeRef(tree).project_local_point(point, radius as f32 + slack, false)?;
+        let [a, b, c] = mesh.corners(i as usize).map(|x| v(x.map(f64::from)));
+        let q = v(closest_point(
+            p.to_array(),
+            a.to_array(),
+            b.to_array(),
+            c.to_array(),
+        ));
+        let d = (p - q).length();
+        (d <= radius).then_some((d, q, (b - a).cross(c - a)))
     }
 
     /// List a bead's top `c` (its four corners counter-clockwise seen from
@@ -123,8 +153,8 @@ impl TopGrid {
             layer,
             normal: None,
         });
-        self.insert([c[0], c[1], c[2]], Some(s));
-        self.insert([c[0], c[2], c[3]], Some(s));
+        self.insert([c[0], c[1], c[2]], s);
+        self.insert([c[0], c[2], c[3]], s);
     }
 
     /// Fit the surface under every strip of `layer` (listed from `first`
@@ -158,9 +188,9 @@ impl TopGrid {
         self.strips.len()
     }
 
-    /// The layer of a top (`None`: the platform).
-    fn layer(&self, top: &Top) -> Option<usize> {
-        top.strip.map(|s| self.strips[s as usize].layer)
+    /// The layer of a top.
+    fn layer(&self, top: &Top) -> usize {
+        self.strips[top.strip as usize].layer
     }
 
     /// Visit the tops listed in the cells around `p`, ring by ring out to
@@ -235,20 +265,24 @@ impl TopGrid {
         over: Option<([f64; 2], f64)>,
     ) -> (Below, bool) {
         let oldest = layer.saturating_sub(lookback);
-        let best: std::cell::Cell<Option<(f64, DVec3, u32)>> = std::cell::Cell::new(None);
+        // The nearest so far: its distance, point and top (`None`: the
+        // platform, whose normal is kept beside).
+        let platform = self.platform_below(p, radius);
+        let best: std::cell::Cell<Option<(f64, DVec3, Option<u32>)>> =
+            std::cell::Cell::new(platform.map(|(d, q, _)| (d, q, None)));
         let bound = || best.get().map_or(radius, |b| b.0);
         let mut stands = false;
         self.rings(p, radius, bound, |i| {
             let top = &self.tops[i as usize];
             match self.layer(top) {
-                Some(l) if l == layer => {
-                    if let (Some((heights, across)), Some(s)) = (over, top.strip) {
-                        let path = self.strips[s as usize].path;
+                l if l == layer => {
+                    if let Some((heights, across)) = over {
+                        let path = self.strips[top.strip as usize].path;
                         stands |= stands_over(p, &top.corners, path, heights, across);
                     }
                     return !stands;
                 }
-                Some(l) if l < oldest || l > layer => return true,
+                l if l < oldest || l > layer => return true,
                 _ => {}
             }
             if (p - top.centre).length() - top.radius >= bound() {
@@ -258,25 +292,21 @@ impl TopGrid {
             let q = v(closest_point(p.to_array(), a, b, c));
             let d = (p - q).length();
             let better = match best.get() {
-                Some((bd, _, bi)) => d < bd || (d == bd && i < bi),
+                Some((bd, _, bi)) => d < bd || (d == bd && Some(i) < bi),
                 None => d <= radius,
             };
             if better {
-                best.set(Some((d, q, i)));
+                best.set(Some((d, q, Some(i))));
             }
             true
         });
         let Some((d, q, i)) = best.get() else {
             return (Below::default(), stands);
         };
-        let top = &self.tops[i as usize];
         let away = p - q;
-        let normal = match top.strip {
-            None => {
-                let [a, b, c] = top.corners;
-                Some((b - a).cross(c - a))
-            }
-            Some(s) => self.strips[s as usize].normal,
+        let normal = match i {
+            None => platform.map(|(_, _, n)| n),
+            Some(i) => self.strips[self.tops[i as usize].strip as usize].normal,
         };
         let fitted = normal.and_then(|n| n.try_normalize());
         let up = match fitted {
@@ -305,10 +335,9 @@ impl TopGrid {
             r,
             || r,
             |i| {
-                if let Some(s) = self.tops[i as usize].strip {
-                    if self.strips[s as usize].layer == layer {
-                        strips.push(s);
-                    }
+                let s = self.tops[i as usize].strip;
+                if self.strips[s as usize].layer == layer {
+                    strips.push(s);
                 }
                 true
             },
