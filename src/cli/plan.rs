@@ -19,7 +19,7 @@ use maamplan::report::json::{
 };
 use maamplan::report::plots::figure_files;
 use maamplan::report::scene_glb::scene_glb;
-use maamplan::report::summary_rows;
+use maamplan::report::{part_line, summary_rows, warnings};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -216,6 +216,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let flipped = job.flipped_names();
     let context = ReportContext {
         source: &job.source,
+        part: job.scene.part,
         command: &command,
         flipped_layers: &flipped,
     };
@@ -227,6 +228,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         &skipped,
         &PlanRun {
             source: &job.source,
+            part: job.scene.part,
             backend: backend.name(),
             flipped_layers: &flipped,
             stages: &stages,
@@ -415,8 +417,9 @@ struct Written<'a> {
     names: Vec<String>,
 }
 
-/// What `plan` prints when it is done: warnings, flipped layers, the
-/// input and plan side by side, and where it wrote.
+/// What `plan` prints when it is done: warnings (the part model's
+/// first), flipped layers, the input and plan side by side, the part
+/// model, and where it wrote.
 fn print_summary(
     job: &LoadedJob,
     p: &Plan,
@@ -425,7 +428,7 @@ fn print_summary(
     backend: &str,
     written: &Written,
 ) {
-    for w in &p.warnings {
+    for w in warnings(job.scene.part, &p.warnings) {
         eprintln!("warning: {w}");
     }
     if !flipped.is_empty() {
@@ -439,6 +442,7 @@ fn print_summary(
     for (k, i, pl) in summary_rows(&p.input, &p.plan) {
         println!("{k:<36} {i:>12} {pl:>14}");
     }
+    println!("{}", part_line(job.scene.part));
     println!(
         "{}: planned in {:.2} s, {:.2} s in all (backend {}); wrote {}/{}",
         job.source,
