@@ -155,6 +155,7 @@ impl SceneArgs {
             tilt_deg: self.tilt,
             part: self.part.model(),
             beads: BeadSettings::of_machine(machine),
+            reach: Some(machine.reach()),
         };
         LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),
