@@ -6,7 +6,7 @@ use super::{check_output, load_machine_or_default, BackendKind, SceneArgs, Usage
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use maamplan::io::gcode::{write_gcode, GcodeHeader};
-use maamplan::io::output::{write_atomic, write_folder_atomic, FolderFile};
+use maamplan::io::output::{write_atomic, write_output_set, FolderFile};
 use maamplan::io::plan_csv::write_plan_csv;
 use maamplan::job::LoadedJob;
 use maamplan::kinematics::Machine;
@@ -378,8 +378,21 @@ impl Rendered {
     }
 }
 
+/// Everything `plan` may write into its output folder: a run replaces
+/// all of it, so no earlier run's report or plots stay beside a new
+/// program.
+const PLAN_OUTPUTS: [&str; 6] = [
+    "toolpath.gcode",
+    "plan.csv",
+    "report.json",
+    "scene.glb",
+    "report.html",
+    "plots",
+];
+
 /// Write `files` into the output folder `out` at once: a failed run
-/// leaves nothing ([`write_folder_atomic`]).
+/// leaves nothing, and no output of an earlier run stays
+/// ([`write_output_set`]).
 fn write_output(out: &Path, files: &[FolderFile]) -> Result<()> {
     let parent = out
         .parent()
@@ -391,7 +404,7 @@ fn write_output(out: &Path, files: &[FolderFile]) -> Result<()> {
             parent.display()
         ))
     })?;
-    write_folder_atomic(out, files)
+    write_output_set(out, files, &PLAN_OUTPUTS)
         .map_err(|e| UsageError(format!("{}: cannot write ({e})", out.display())))?;
     Ok(())
 }
