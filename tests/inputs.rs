@@ -21,7 +21,7 @@ use std::path::{Path, PathBuf};
 fn line(k: usize) -> Vec<[f32; 6]> {
     (0..21)
         .map(|i| {
-            let i = if k % 2 == 0 { i } else { 20 - i };
+            let i = if k.is_multiple_of(2) { i } else { 20 - i };
             [i as f32 * 0.5 - 5.0, 0.0, k as f32 * 0.5, 0.0, 0.0, 1.0]
         })
         .collect()
