@@ -363,7 +363,7 @@ impl Machine {
                 msg: msg.to_string(),
             })
         };
-        let positive = |s: f64| s.is_finite() && s > 0.0;
+        let t = &self.travel;
         for (key, s) in [
             ("x.speed", self.x.speed),
             ("y.speed", self.y.speed),
@@ -371,26 +371,13 @@ impl Machine {
             ("tilt.speed", self.tilt.speed),
             ("c.speed", self.c.speed),
             ("feed", self.feed),
-        ] {
-            if !positive(s) {
-                return bad(
-                    &[key],
-                    &format!("{key} must be positive (every axis speed and the feed)"),
-                );
-            }
-        }
-        let t = &self.travel;
-        for (key, s) in [
             ("travel.retract_speed", t.retract_speed),
             ("travel.speed", t.speed),
             ("travel.z_speed", t.z_speed),
             ("support.feed", self.support.feed),
         ] {
-            if !positive(s) {
-                return bad(
-                    &[key],
-                    &format!("{key} must be positive (travel speeds and the support feed)"),
-                );
+            if !(s.is_finite() && s > 0.0) {
+                return bad(&[key], &format!("{key} must be positive"));
             }
         }
         for (key, s) in [
