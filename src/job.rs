@@ -65,6 +65,12 @@ pub struct JobSpec {
     /// How beads are made where the part is modelled from them (the
     /// machine's extrusion).
     pub beads: BeadSettings,
+    /// The machine's reach ([`crate::kinematics::Machine::reach`]):
+    /// waypoints farther from the origin are out of range in every
+    /// orientation, so they size nothing (the default plate, the
+    /// contact tolerance); a typo far away costs nothing. `None`: no
+    /// bound.
+    pub reach: Option<f64>,
 }
 
 /// A job loaded from its [`JobSpec`]: the toolpath with the conventions
@@ -140,7 +146,7 @@ impl LoadedJob {
         }
         let platform = match &spec.platform {
             Some(p) => load_mesh(p)?,
-            None => default_platform.unwrap_or_else(|| plate_under(&toolpath)),
+            None => default_platform.unwrap_or_else(|| plate_under(&toolpath, spec.reach)),
         };
         let layers_unknown = toolpath.layers.len() == 1 && toolpath.layers[0].surface.is_none();
         let mut deposited = None;
@@ -158,7 +164,10 @@ impl LoadedJob {
             Some(p) => load_mesh(p)?,
             None => default_head.unwrap_or_else(default_job::default_head),
         };
-        let cfg = scene_config(spec.clearance, spec.part, spec.beads);
+        let cfg = SceneConfig {
+            reach: spec.reach.map(|r| r as f32),
+            ..scene_config(spec.clearance, spec.part, spec.beads)
+        };
         let (scene, beside_result) = rayon::join(
             || Scene::build_deposited(&toolpath, &head, &platform, &cfg, deposited),
             || beside(&toolpath),
@@ -232,7 +241,9 @@ pub fn stacked(
 
 /// The scene settings of a loaded job: contact within `clearance` of the
 /// tip, along the nozzle, ignored; the head's data cached between runs;
-/// the part modelled as `part` says, beads made as `beads` says.
+/// the part modelled as `part` says, beads made as `beads` says; every
+/// waypoint sizes the scene (a job's spec bounds that by the machine's
+/// reach).
 pub fn scene_config(clearance: f32, part: PartModel, beads: BeadSettings) -> SceneConfig {
     SceneConfig {
         head: HeadConfig {
@@ -243,13 +254,21 @@ pub fn scene_config(clearance: f32, part: PartModel, beads: BeadSettings) -> Sce
         head_cache: true,
         part,
         beads,
+        reach: None,
     }
 }
 
 /// A flat plate whose top is at the toolpath's lowest point, 100 mm wider
-/// than the part on every side.
-pub fn plate_under(tp: &Toolpath) -> Mesh {
-    let pts: Vec<[f32; 3]> = tp.iter().map(|(_, w)| w.pos).collect();
+/// than the part on every side: the part of the waypoints within `reach`
+/// of the origin (mm; `None`: all), or all where none is.
+pub fn plate_under(tp: &Toolpath, reach: Option<f64>) -> Mesh {
+    let within = |p: &[f32; 3]| {
+        reach.is_none_or(|r| f64::from(p[0]).hypot(p[1].into()).hypot(p[2].into()) <= r)
+    };
+    let mut pts: Vec<[f32; 3]> = tp.iter().map(|(_, w)| w.pos).filter(within).collect();
+    if pts.is_empty() {
+        pts = tp.iter().map(|(_, w)| w.pos).collect();
+    }
     let b = Aabb::from_points(&pts);
     default_job::box_mesh(
         [b.min[0] - 100.0, b.min[1] - 100.0, b.min[2] - 5.0],

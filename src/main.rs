@@ -1,6 +1,25 @@
 //! The `maamplan` binary: parse the command line, run, map errors to exit
 //! codes (2 for user errors, 1 for internal failures).
 
+// The commands' lines on stdout and stderr: a reader that has gone away
+// (`maamplan plan -v | head -1`) must not panic the run (std's `println!`
+// does on a closed pipe). The run goes on, writes its outputs and exits as
+// it would; only lines nobody reads are lost. Defined before `mod cli` so
+// that every command's `println!` and `eprintln!` are these.
+macro_rules! println {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+macro_rules! eprintln {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
 mod cli;
 
 use clap::Parser;

@@ -13,6 +13,7 @@ use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions};
 use maamplan::prove::Prover;
 use maamplan::report::json::{check_report, CheckRun};
+use maamplan::report::part_line;
 use maamplan::scene::Scene;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -75,6 +76,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
     let flipped = job.flipped_names();
     let run = CheckRun {
         source: &job.source,
+        part: job.scene.part,
         backend: backend.name(),
         margin,
         seconds,
@@ -93,6 +95,9 @@ pub fn run(a: CheckArgs) -> Result<()> {
     if a.quiet {
         return Ok(());
     }
+    if let Some(w) = job.scene.part.warning() {
+        eprintln!("warning: {w}");
+    }
     if a.verbose {
         print_scene(&job.scene, &prover, backend.as_ref());
     }
@@ -105,6 +110,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
     }
     let with_moves = a.plan.is_some();
     print_layers(&layers, with_moves);
+    println!("{}", part_line(job.scene.part));
     print_total(&run, &job, &verdicts, &layers, with_moves);
     Ok(())
 }

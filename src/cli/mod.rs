@@ -155,6 +155,7 @@ impl SceneArgs {
             tilt_deg: self.tilt,
             part: self.part.model(),
             beads: BeadSettings::of_machine(machine),
+            reach: Some(machine.reach()),
         };
         LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),
@@ -426,4 +427,37 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
         ))
     })?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    /// A run that fails while the GPU is still being opened (an input
+    /// error found while the driver loads) returns only once the opening
+    /// thread is done: `main` then prints the error and exits 2 with no
+    /// other thread inside the driver, whose start crashes a process that
+    /// leaves under it. Every command holds its [`Opening`] as a local, so
+    /// every `?` between `open` and `build_with` passes through this drop.
+    #[test]
+    fn an_input_error_waits_for_the_gpu_being_opened() {
+        let opened = Arc::new(AtomicBool::new(false));
+        let flag = opened.clone();
+        let run = || -> Result<()> {
+            let _opening = Opening(Some(std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(300));
+                flag.store(true, Ordering::SeqCst);
+                Ok(None)
+            })));
+            Err(UsageError("bad input".into()).into())
+        };
+        let e = run().unwrap_err();
+        assert!(e.is::<UsageError>());
+        assert!(
+            opened.load(Ordering::SeqCst),
+            "returned before the GPU opened"
+        );
+    }
 }

@@ -6,7 +6,7 @@ use super::{check_output, load_machine_or_default, BackendKind, SceneArgs, Usage
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use maamplan::io::gcode::{write_gcode, GcodeHeader};
-use maamplan::io::output::{write_atomic, write_folder_atomic, FolderFile};
+use maamplan::io::output::{write_atomic, write_output_set, FolderFile};
 use maamplan::io::plan_csv::write_plan_csv;
 use maamplan::job::LoadedJob;
 use maamplan::kinematics::Machine;
@@ -19,7 +19,7 @@ use maamplan::report::json::{
 };
 use maamplan::report::plots::figure_files;
 use maamplan::report::scene_glb::scene_glb;
-use maamplan::report::summary_rows;
+use maamplan::report::{part_line, summary_rows, warnings};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -216,6 +216,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let flipped = job.flipped_names();
     let context = ReportContext {
         source: &job.source,
+        part: job.scene.part,
         command: &command,
         flipped_layers: &flipped,
     };
@@ -227,6 +228,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         &skipped,
         &PlanRun {
             source: &job.source,
+            part: job.scene.part,
             backend: backend.name(),
             flipped_layers: &flipped,
             stages: &stages,
@@ -376,8 +378,21 @@ impl Rendered {
     }
 }
 
+/// Everything `plan` may write into its output folder: a run replaces
+/// all of it, so no earlier run's report or plots stay beside a new
+/// program.
+const PLAN_OUTPUTS: [&str; 6] = [
+    "toolpath.gcode",
+    "plan.csv",
+    "report.json",
+    "scene.glb",
+    "report.html",
+    "plots",
+];
+
 /// Write `files` into the output folder `out` at once: a failed run
-/// leaves nothing ([`write_folder_atomic`]).
+/// leaves nothing, and no output of an earlier run stays
+/// ([`write_output_set`]).
 fn write_output(out: &Path, files: &[FolderFile]) -> Result<()> {
     let parent = out
         .parent()
@@ -389,7 +404,7 @@ fn write_output(out: &Path, files: &[FolderFile]) -> Result<()> {
             parent.display()
         ))
     })?;
-    write_folder_atomic(out, files)
+    write_output_set(out, files, &PLAN_OUTPUTS)
         .map_err(|e| UsageError(format!("{}: cannot write ({e})", out.display())))?;
     Ok(())
 }
@@ -415,8 +430,9 @@ struct Written<'a> {
     names: Vec<String>,
 }
 
-/// What `plan` prints when it is done: warnings, flipped layers, the
-/// input and plan side by side, and where it wrote.
+/// What `plan` prints when it is done: warnings (the part model's
+/// first), flipped layers, the input and plan side by side, the part
+/// model, and where it wrote.
 fn print_summary(
     job: &LoadedJob,
     p: &Plan,
@@ -425,7 +441,7 @@ fn print_summary(
     backend: &str,
     written: &Written,
 ) {
-    for w in &p.warnings {
+    for w in warnings(job.scene.part, &p.warnings) {
         eprintln!("warning: {w}");
     }
     if !flipped.is_empty() {
@@ -439,6 +455,7 @@ fn print_summary(
     for (k, i, pl) in summary_rows(&p.input, &p.plan) {
         println!("{k:<36} {i:>12} {pl:>14}");
     }
+    println!("{}", part_line(job.scene.part));
     println!(
         "{}: planned in {:.2} s, {:.2} s in all (backend {}); wrote {}/{}",
         job.source,

@@ -16,6 +16,7 @@ use maamplan::plan::{head_reach, PlanOptions, Progress};
 use maamplan::report::html::{simulation_html, ReportContext};
 use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::moves_csv::write_moves_csv;
+use maamplan::report::part_line;
 use maamplan::report::plots::simulation_figures;
 use maamplan::scene::{BeadSettings, PartModel, Scene};
 use maamplan::simulate::{self, ProblemKind, Simulation};
@@ -136,6 +137,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
             let run = SimulationRun {
                 gcode: &a.gcode.display().to_string(),
                 toolpath: &source,
+                part: scene.part,
                 layer_names: &layer_names,
                 backend: backend.name(),
                 seconds: t0.elapsed().as_secs_f64(),
@@ -149,7 +151,11 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if a.quiet {
         return Ok(());
     }
+    if let Some(w) = scene.part.warning() {
+        eprintln!("warning: {w}");
+    }
     print!("{}", summary_text(&sim, a.verbose));
+    println!("{}", part_line(scene.part));
     let s = &sim.summary;
     println!(
         "{}: {} moves ({} extruding) simulated against {} in {:.2} s (backend {}){}",
@@ -192,6 +198,7 @@ fn write_outputs(
         let html = simulation_html(
             &ReportContext {
                 source: &format!("{} ({})", run.gcode, run.toolpath),
+                part: run.part,
                 command: run.command,
                 flipped_layers: &[],
             },

@@ -13,6 +13,9 @@ pub mod obj_plain;
 pub mod output;
 pub mod plan_csv;
 pub mod toolpath_folder;
+pub mod waypoint_csv;
+pub mod waypoint_file;
+pub mod waypoint_line;
 
 use std::path::{Path, PathBuf};
 

@@ -34,6 +34,16 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> std::io::Result<()> {
 /// the one of the same name (a stale `waypoint/` folder goes as a whole);
 /// other entries are left alone.
 pub fn write_folder_atomic(dir: &Path, files: &[FolderFile]) -> std::io::Result<()> {
+    write_output_set(dir, files, &[])
+}
+
+/// [`write_folder_atomic`] for a command whose outputs are the top-level
+/// entries `set` of `dir` (a file, or a folder such as `plots`): those of
+/// them this run does not write (an earlier run's report beside a run
+/// without one) are removed once the new ones are in place, so the folder
+/// never holds two runs' outputs side by side. Other entries are left
+/// alone.
+pub fn write_output_set(dir: &Path, files: &[FolderFile], set: &[&str]) -> std::io::Result<()> {
     let parent = dir
         .parent()
         .filter(|p| !p.as_os_str().is_empty())
@@ -69,5 +79,41 @@ pub fn write_folder_atomic(dir: &Path, files: &[FolderFile]) -> std::io::Result<
         }
         std::fs::rename(tmp.path().join(&top), &target)?;
     }
+    for name in set {
+        let target = dir.join(name);
+        if files.iter().any(|(rel, _)| rel.starts_with(name)) {
+            continue;
+        }
+        if target.is_dir() {
+            std::fs::remove_dir_all(&target)?;
+        } else if target.symlink_metadata().is_ok() {
+            std::fs::remove_file(&target)?;
+        }
+    }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_run_replaces_the_outputs_of_the_last_as_a_set() {
+        let root = tempfile::tempdir().unwrap();
+        let dir = root.path().join("out");
+        let set = ["a.txt", "plots", "b.txt"];
+        let first: Vec<FolderFile> = vec![
+            ("a.txt".into(), b"1".to_vec()),
+            ("b.txt".into(), b"1".to_vec()),
+            ("plots/p.svg".into(), b"1".to_vec()),
+        ];
+        write_output_set(&dir, &first, &set).unwrap();
+        std::fs::write(dir.join("notes.md"), "mine").unwrap();
+        write_output_set(&dir, &[("a.txt".into(), b"2".to_vec())], &set).unwrap();
+        assert_eq!(std::fs::read(dir.join("a.txt")).unwrap(), b"2");
+        assert!(!dir.join("b.txt").exists() && !dir.join("plots").exists());
+        assert_eq!(std::fs::read(dir.join("notes.md")).unwrap(), b"mine");
+        let left: Vec<_> = std::fs::read_dir(root.path()).unwrap().collect();
+        assert_eq!(left.len(), 1, "no scratch folder is left beside the output");
+    }
 }

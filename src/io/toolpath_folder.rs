@@ -1,30 +1,25 @@
-//! Toolpath folders in the zhang2021 layout (`waypoint/<k>.txt` and
-//! `layer/<k>.obj`, sorted naturally), read (or a single waypoint file)
-//! and written ([`toolpath_files`]); [`crate::toolpath`] is what they hold.
+//! Toolpath folders in the zhang2021 layout (`waypoint/<k>.txt` and,
+//! optionally, `layer/<k>.obj`, sorted naturally), read and written
+//! ([`toolpath_files`]); a single file goes to [`super::waypoint_file`].
+//! [`crate::toolpath`] is what they hold.
 //!
 //! A waypoint line is `px py pz nx ny nz` (spaces or commas); blank lines
 //! and lines starting with `#` are skipped. Normals are normalised.
 
 use super::mesh::load_mesh;
-use super::number::parse_f32;
 use super::output::FolderFile;
+use super::waypoint_file::load_waypoint_file;
+use super::waypoint_line::{is_comment_or_blank, split_fields, waypoint_of};
 use super::{read_to_string, InputError, Placement};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
-/// Load a toolpath folder or a single waypoint file.
+/// Load a toolpath folder or a single waypoint file
+/// ([`load_waypoint_file`]).
 pub fn load_toolpath(path: &Path, place: &Placement) -> Result<Toolpath, InputError> {
     if path.is_file() {
-        let waypoints = load_waypoints(path, place)?;
-        let name = stem(path);
-        return Ok(Toolpath {
-            layers: vec![Layer {
-                name,
-                waypoints,
-                surface: None,
-            }],
-        });
+        return load_waypoint_file(path, place);
     }
     if !path.is_dir() {
         return Err(InputError::file(
@@ -94,6 +89,9 @@ pub fn load_toolpath(path: &Path, place: &Placement) -> Result<Toolpath, InputEr
     Ok(Toolpath { layers })
 }
 
+/// The columns of a waypoint line in the folder layout: `px py pz nx ny nz`.
+const XYZ_NXNYNZ: [usize; 6] = [0, 1, 2, 3, 4, 5];
+
 /// Parse one waypoint file.
 pub fn load_waypoints(path: &Path, place: &Placement) -> Result<Vec<Waypoint>, InputError> {
     let text = read_to_string(path)?;
@@ -108,66 +106,20 @@ pub fn parse_waypoints(
 ) -> Result<Vec<Waypoint>, InputError> {
     let mut out = Vec::new();
     for (i, line) in text.lines().enumerate() {
-        let n = i + 1;
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
+        if is_comment_or_blank(line) {
             continue;
         }
-        // Up to seven fields are kept (a seventh only to say how many
-        // there are): no list is allocated per line.
-        let mut fields = [""; 7];
-        let mut count = 0;
-        for f in line
-            .split(|c: char| c.is_whitespace() || c == ',')
-            .filter(|s| !s.is_empty())
-        {
-            if count < fields.len() {
-                fields[count] = f;
-            }
-            count += 1;
-        }
+        let (fields, count) = split_fields(line);
         if count != 6 {
             return Err(InputError::at(
                 path,
-                n,
+                i + 1,
                 format!(
                     "expected 6 numbers (px py pz nx ny nz), found {count}: fix or remove this line"
                 ),
             ));
         }
-        let mut v = [0f32; 6];
-        for (k, f) in fields[..6].iter().enumerate() {
-            let x = parse_f32(f.as_bytes()).ok_or_else(|| {
-                InputError::at(
-                    path,
-                    n,
-                    format!("field {} '{f}' is not a number: fix this line", k + 1),
-                )
-            })?;
-            if !x.is_finite() {
-                return Err(InputError::at(
-                    path,
-                    n,
-                    format!(
-                        "field {} is {f}: every coordinate must be a finite number",
-                        k + 1
-                    ),
-                ));
-            }
-            v[k] = x;
-        }
-        let len = (v[3] * v[3] + v[4] * v[4] + v[5] * v[5]).sqrt();
-        if len.is_nan() || len <= 1e-12 {
-            return Err(InputError::at(
-                path,
-                n,
-                "zero-length nozzle direction (nx ny nz): give the direction from the tip into the head",
-            ));
-        }
-        out.push(Waypoint {
-            pos: place.point([v[0], v[1], v[2]]),
-            dir: place.direction([v[3] / len, v[4] / len, v[5] / len]),
-        });
+        out.push(waypoint_of(path, i + 1, &fields, &XYZ_NXNYNZ, place)?);
     }
     if out.is_empty() {
         return Err(InputError::file(

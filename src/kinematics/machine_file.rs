@@ -13,7 +13,7 @@
 
 use super::post::Post;
 use super::{Configuration, Rotary};
-use serde::{Deserialize, Serialize};
+use serde::{Deserialize, Deserializer, Serialize};
 use std::path::Path;
 
 /// What can go wrong reading a machine file.
@@ -54,7 +54,7 @@ pub struct AxisLimits {
 /// Extrusion parameters (paper 000, Eq. 1): `ΔE = k · H · W · |Δp|` with
 /// the layer height `H` measured per waypoint.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Extrusion {
     /// Machine coefficient k (filament mm per mm³ of bead).
     pub k: f64,
@@ -65,12 +65,21 @@ pub struct Extrusion {
     /// Nozzle temperature (°C) for the G-code header.
     pub temperature: u32,
     /// Tool number of the main extruder (`T<n>` in the G-code).
-    #[serde(default = "default_tool")]
     pub tool: u32,
 }
 
-fn default_tool() -> u32 {
-    1
+impl Default for Extrusion {
+    /// The data set's printer: a 0.7 mm bead, 0.5 mm layers where none
+    /// can be measured, 205 °C, tool 1.
+    fn default() -> Self {
+        Extrusion {
+            k: 0.55,
+            width: 0.7,
+            default_height: 0.5,
+            temperature: 205,
+            tool: 1,
+        }
+    }
 }
 
 /// The printing settings of one extruder. The machine file's `[support]`
@@ -79,7 +88,7 @@ fn default_tool() -> u32 {
 /// extruder's come from `[extrusion]` and the machine's feed and tip-speed
 /// range ([`Machine::tool_for`]).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default = "default_support")]
 pub struct ToolSettings {
     /// Tool number (`T<n>`).
     pub tool: u32,
@@ -111,7 +120,7 @@ pub fn default_support() -> ToolSettings {
 /// Moves between printed sections: retract, lift, travel, approach, prime.
 /// Defaults are the data set's reference G-code.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Travel {
     /// Filament pulled back before a travel and pushed back after it (mm).
     pub retract: f64,
@@ -157,38 +166,32 @@ impl Travel {
     }
 }
 
-fn default_margin() -> f64 {
-    0.05
-}
-
-fn default_tip_tolerance() -> f64 {
-    0.05
-}
-
-/// A 5-axis machine.
+/// A 5-axis machine. Every field the file leaves out, and every field of
+/// a section it gives in part, is the default machine's.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct Machine {
     /// Table I configuration.
     pub configuration: Configuration,
     /// Rotary pair.
     pub rotary: Rotary,
     /// Config I: distance from the tip to the tilt axis (mm).
-    #[serde(default)]
     pub d: f64,
     /// Config II: distance from the tip to where the axes meet (mm).
-    #[serde(default)]
     pub h: f64,
     /// Config II: distance from the tip to the C axis (mm).
-    #[serde(default)]
     pub r: f64,
     /// X axis.
+    #[serde(deserialize_with = "x_axis")]
     pub x: AxisLimits,
     /// Y axis.
+    #[serde(deserialize_with = "y_axis")]
     pub y: AxisLimits,
     /// Z axis.
+    #[serde(deserialize_with = "z_axis")]
     pub z: AxisLimits,
     /// Tilt axis (B or A), degrees.
+    #[serde(deserialize_with = "tilt_axis")]
     pub tilt: AxisLimits,
     /// C axis, degrees; the range applies to machines whose cables cannot
     /// wind freely, otherwise leave it out (C turns without limit).
@@ -201,34 +204,74 @@ pub struct Machine {
     pub extrusion: Extrusion,
     /// Safety margin (mm): every pose and move keeps at least this distance
     /// from the platform and printed material.
-    #[serde(default = "default_margin")]
     pub margin: f64,
     /// Largest distance the nozzle tip may leave its bead while extruding
     /// under joint-linear interpolation (mm); longer moves get intermediate
     /// points.
-    #[serde(default = "default_tip_tolerance")]
     pub tip_tolerance: f64,
     /// The support extruder.
-    #[serde(default = "default_support")]
     pub support: ToolSettings,
     /// Moves between printed sections.
-    #[serde(default)]
     pub travel: Travel,
     /// How the controller reads the program (dialect, axis letters, feed
     /// and extruder modes).
-    #[serde(default)]
     pub post: Post,
 }
 
 /// The C axis: speed, and an optional range.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct CAxis {
     /// Top speed, degrees/s.
     pub speed: f64,
     /// Optional `[min, max]` in degrees.
-    #[serde(default)]
     pub range: Option<[f64; 2]>,
+}
+
+impl Default for CAxis {
+    /// 14 °/s, winding freely.
+    fn default() -> Self {
+        CAxis {
+            speed: 14.0,
+            range: None,
+        }
+    }
+}
+
+/// An axis section as a file may give it: a field left out keeps the
+/// default machine's value for that axis.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct AxisFields {
+    min: Option<f64>,
+    max: Option<f64>,
+    speed: Option<f64>,
+}
+
+/// The axis section of `d`, its missing fields from `default`.
+fn axis_or<'de, D: Deserializer<'de>>(d: D, default: AxisLimits) -> Result<AxisLimits, D::Error> {
+    let f = AxisFields::deserialize(d)?;
+    Ok(AxisLimits {
+        min: f.min.unwrap_or(default.min),
+        max: f.max.unwrap_or(default.max),
+        speed: f.speed.unwrap_or(default.speed),
+    })
+}
+
+fn x_axis<'de, D: Deserializer<'de>>(d: D) -> Result<AxisLimits, D::Error> {
+    axis_or(d, Machine::default().x)
+}
+
+fn y_axis<'de, D: Deserializer<'de>>(d: D) -> Result<AxisLimits, D::Error> {
+    axis_or(d, Machine::default().y)
+}
+
+fn z_axis<'de, D: Deserializer<'de>>(d: D) -> Result<AxisLimits, D::Error> {
+    axis_or(d, Machine::default().z)
+}
+
+fn tilt_axis<'de, D: Deserializer<'de>>(d: D) -> Result<AxisLimits, D::Error> {
+    axis_or(d, Machine::default().tilt)
 }
 
 impl Default for Machine {
@@ -259,21 +302,12 @@ impl Default for Machine {
                 max: 90.0,
                 speed: 14.0,
             },
-            c: CAxis {
-                speed: 14.0,
-                range: None,
-            },
+            c: CAxis::default(),
             tip_speed: [1.0, 25.0],
             feed: 25.0,
-            extrusion: Extrusion {
-                k: 0.55,
-                width: 0.7,
-                default_height: 0.5,
-                temperature: 205,
-                tool: 1,
-            },
-            margin: default_margin(),
-            tip_tolerance: default_tip_tolerance(),
+            extrusion: Extrusion::default(),
+            margin: 0.05,
+            tip_tolerance: 0.05,
             support: default_support(),
             travel: Travel::default(),
             post: Post::default(),
@@ -303,59 +337,101 @@ impl Machine {
         [self.d, self.h, self.r]
     }
 
+    /// How far from the part frame's origin a tip the machine can put
+    /// within its axis ranges may lie, at most (mm): the linear axes turn
+    /// the tip about the origin (or carry it unturned), shifted by lever
+    /// arms no longer than twice the offsets, so a tip farther than the
+    /// farthest corner of the X, Y, Z ranges plus that is out of range in
+    /// every orientation (plus a millimetre for the written rounding).
+    pub fn reach(&self) -> f64 {
+        let far = |a: &AxisLimits| a.min.abs().max(a.max.abs());
+        let corner = far(&self.x).hypot(far(&self.y)).hypot(far(&self.z));
+        corner + 2.0 * (self.d.abs() + self.h.abs() + self.r.abs()) + 1.0
+    }
+
     /// The default machine as TOML (what `plan --machine` reads).
     pub fn to_toml(&self) -> String {
         toml::to_string_pretty(self).expect("machine serialises")
     }
 
-    fn validate(&self) -> Result<(), String> {
-        let speeds = [
-            self.x.speed,
-            self.y.speed,
-            self.z.speed,
-            self.tilt.speed,
-            self.c.speed,
-            self.feed,
-        ];
-        if speeds.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-            return Err("every axis speed and the feed must be positive".into());
-        }
+    /// Check the values serde cannot: `Err` names the fields at fault
+    /// (dotted paths, the one to point at first) and what is wrong.
+    fn validate(&self) -> Result<(), Invalid> {
+        let bad = |keys: &[&str], msg: &str| {
+            Err(Invalid {
+                keys: keys.iter().map(|k| k.to_string()).collect(),
+                msg: msg.to_string(),
+            })
+        };
         let t = &self.travel;
-        if [t.retract_speed, t.speed, t.z_speed, self.support.feed]
-            .iter()
-            .any(|s| !(s.is_finite() && *s > 0.0))
-        {
-            return Err("travel speeds and the support feed must be positive".into());
+        for (key, s) in [
+            ("x.speed", self.x.speed),
+            ("y.speed", self.y.speed),
+            ("z.speed", self.z.speed),
+            ("tilt.speed", self.tilt.speed),
+            ("c.speed", self.c.speed),
+            ("feed", self.feed),
+            ("travel.retract_speed", t.retract_speed),
+            ("travel.speed", t.speed),
+            ("travel.z_speed", t.z_speed),
+            ("support.feed", self.support.feed),
+        ] {
+            if !(s.is_finite() && s > 0.0) {
+                return bad(&[key], &format!("{key} must be positive"));
+            }
         }
-        if [t.retract, t.prime, t.lift, t.approach]
-            .iter()
-            .any(|s| !(s.is_finite() && *s >= 0.0))
-        {
-            return Err("travel retract, prime, lift and approach must be ≥ 0".into());
+        for (key, s) in [
+            ("travel.retract", t.retract),
+            ("travel.prime", t.prime),
+            ("travel.lift", t.lift),
+            ("travel.approach", t.approach),
+        ] {
+            if !(s.is_finite() && s >= 0.0) {
+                return bad(&[key], &format!("{key} must be ≥ 0"));
+            }
         }
         if !(self.margin.is_finite() && self.margin >= 0.0 && self.margin < 10.0) {
-            return Err("margin must be between 0 and 10 mm".into());
+            return bad(&["margin"], "margin must be between 0 and 10 mm");
         }
         if !(self.tip_tolerance.is_finite() && self.tip_tolerance >= 0.001) {
-            return Err("tip_tolerance must be at least 0.001 mm".into());
+            return bad(
+                &["tip_tolerance"],
+                "tip_tolerance must be at least 0.001 mm",
+            );
         }
         let [slo, shi] = self.support.tip_speed;
         if !(slo > 0.0 && shi > slo) {
-            return Err("support.tip_speed must be [v_min, v_max] with 0 < v_min < v_max".into());
+            return bad(
+                &["support.tip_speed"],
+                "support.tip_speed must be [v_min, v_max] with 0 < v_min < v_max",
+            );
         }
         if let Some([lo, hi]) = self.c.range {
             if lo.is_nan() || hi.is_nan() || lo >= hi {
-                return Err("c.range must be [min, max] with min < max".into());
+                return bad(&["c.range"], "c.range must be [min, max] with min < max");
             }
         }
         let [lo, hi] = self.tip_speed;
         if !(lo > 0.0 && hi > lo) {
-            return Err("tip_speed must be [v_min, v_max] with 0 < v_min < v_max".into());
+            return bad(
+                &["tip_speed"],
+                "tip_speed must be [v_min, v_max] with 0 < v_min < v_max",
+            );
         }
         if !(self.travel.home_z >= self.z.min && self.travel.home_z <= self.z.max) {
-            return Err("travel.home_z must lie within the z range".into());
+            return bad(
+                &["travel.home_z", "z.min", "z.max"],
+                "travel.home_z must lie within the z range",
+            );
         }
-        self.post.validate(self.rotary)?;
+        if let Err(msg) = self.post.validate(self.rotary) {
+            // Post's messages begin with the field they are about.
+            let key = msg.split_whitespace().next().unwrap_or("post").to_string();
+            return Err(Invalid {
+                keys: vec![key, "post".into()],
+                msg,
+            });
+        }
         for (name, a) in [
             ("x", self.x),
             ("y", self.y),
@@ -363,10 +439,50 @@ impl Machine {
             ("tilt", self.tilt),
         ] {
             if a.min >= a.max {
-                return Err(format!("{name}.min must be below {name}.max"));
+                let (min, max) = (format!("{name}.min"), format!("{name}.max"));
+                return bad(&[&min, &max], &format!("{min} must be below {max}"));
             }
         }
         Ok(())
+    }
+}
+
+/// A machine whose values are out of range: the fields at fault (dotted
+/// paths into the file, the one to point at first) and what is wrong.
+struct Invalid {
+    keys: Vec<String>,
+    msg: String,
+}
+
+/// The 1-based line in `text` of the first of `keys` (dotted paths such as
+/// `tilt.min`) the file gives, else of the nearest section it gives on
+/// their way (`[tilt]`), else 1: a value the file leaves to the default is
+/// pointed at where the file could set it.
+fn line_of(text: &str, keys: &[String]) -> usize {
+    let Ok(doc) = toml::de::DeTable::parse(text) else {
+        return 1;
+    };
+    let line = |at: usize| text[..at.min(text.len())].matches('\n').count() + 1;
+    let sections = keys.iter().filter_map(|k| k.rsplit_once('.').map(|s| s.0));
+    keys.iter()
+        .map(String::as_str)
+        .chain(sections)
+        .find_map(|k| key_start(doc.get_ref(), k))
+        .map_or(1, line)
+}
+
+/// Where the dotted `key` is written in `table` (the byte offset of its
+/// last part's name), if it is.
+fn key_start(table: &toml::de::DeTable, key: &str) -> Option<usize> {
+    let (head, rest) = match key.split_once('.') {
+        Some((h, r)) => (h, Some(r)),
+        None => (key, None),
+    };
+    let (k, v) = table.iter().find(|(k, _)| k.get_ref() == head)?;
+    match (rest, v.get_ref()) {
+        (None, _) => Some(k.span().start),
+        (Some(r), toml::de::DeValue::Table(t)) => key_start(t, r),
+        (Some(_), _) => None,
     }
 }
 
@@ -379,7 +495,7 @@ pub fn load_machine(path: &Path) -> Result<Machine, MachineError> {
     let m: Machine = toml::from_str(&text).map_err(|e| {
         let line = e
             .span()
-            .map(|s| text[..s.start.min(text.len())].lines().count().max(1))
+            .map(|s| text[..s.start.min(text.len())].matches('\n').count() + 1)
             .unwrap_or(1);
         let at = text.lines().nth(line - 1).unwrap_or("").trim();
         MachineError::Parse {
@@ -388,10 +504,10 @@ pub fn load_machine(path: &Path) -> Result<Machine, MachineError> {
             msg: format!("{} (in `{at}`)", e.message().trim()),
         }
     })?;
-    m.validate().map_err(|msg| MachineError::Parse {
+    m.validate().map_err(|e| MachineError::Parse {
         path: path.to_path_buf(),
-        line: 1,
-        msg,
+        line: line_of(&text, &e.keys),
+        msg: e.msg,
     })?;
     Ok(m)
 }
@@ -408,14 +524,138 @@ mod tests {
     }
 
     #[test]
-    fn bad_field_names_the_line() {
+    fn no_tip_within_the_axis_ranges_lies_beyond_reach() {
+        use crate::kinematics::{tip_position, Configuration, Rotary};
+        for configuration in [Configuration::I, Configuration::II, Configuration::III] {
+            for rotary in [Rotary::BC, Rotary::AC] {
+                let m = Machine {
+                    configuration,
+                    rotary,
+                    d: 31.0,
+                    h: -12.0,
+                    r: 17.0,
+                    ..Machine::default()
+                };
+                let reach = m.reach() - 1.0;
+                let mut farthest = 0f64;
+                for corner in 0..8 {
+                    let pick = |bit: usize, a: &AxisLimits| {
+                        if corner >> bit & 1 == 0 {
+                            a.min
+                        } else {
+                            a.max
+                        }
+                    };
+                    let xyz = [pick(0, &m.x), pick(1, &m.y), pick(2, &m.z)];
+                    for i in 0..=36 {
+                        for j in 0..=36 {
+                            let t = (-90.0 + 5.0 * i as f64).to_radians();
+                            let c = (10.0 * j as f64).to_radians();
+                            let p = tip_position(&m, xyz, t, c);
+                            farthest = farthest.max(p[0].hypot(p[1]).hypot(p[2]));
+                        }
+                    }
+                }
+                assert!(
+                    farthest <= reach + 1e-9,
+                    "{configuration:?} {rotary:?}: {farthest} > {reach}"
+                );
+                assert!(farthest > reach - 2.0 * (31.0 + 12.0 + 17.0) - 1e-9);
+            }
+        }
+    }
+
+    /// The error of loading `text` as a machine file, and the line of
+    /// the text's first line that contains `needle` (after `after`).
+    fn error_and_line(text: &str, after: &str, needle: &str) -> (String, usize) {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("m.toml");
+        std::fs::write(&p, text).unwrap();
+        let e = load_machine(&p).unwrap_err().to_string();
+        let from = text.lines().position(|l| l.starts_with(after)).unwrap();
+        let at = from
+            + text
+                .lines()
+                .skip(from)
+                .position(|l| l.starts_with(needle))
+                .unwrap();
+        (e, at + 1)
+    }
+
+    #[test]
+    fn bad_field_names_the_line() {
         let text = Machine::default()
             .to_toml()
             .replace("feed = 25.0", "feed = \"fast\"");
+        let (e, line) = error_and_line(&text, "", "feed =");
+        assert!(
+            e.contains(&format!("m.toml:{line}:")) && e.contains("feed"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_value_out_of_range_names_its_line() {
+        let default = Machine::default().to_toml();
+        let text = default.replacen("min = -90.0", "min = 120.0", 1);
+        let (e, line) = error_and_line(&text, "[tilt]", "min =");
+        assert!(
+            line > 1 && e.contains(&format!("m.toml:{line}: tilt.min")),
+            "{e}"
+        );
+        let text = default.replace("speed = 87.5", "speed = 0.0");
+        let (e, line) = error_and_line(&text, "[travel]", "speed =");
+        assert!(e.contains(&format!("m.toml:{line}: travel.speed")), "{e}");
+        // Left to the default, home_z is pointed at through its section.
+        let text = "[travel]\nlift = 5.0\n[z]\nmax = 100.0\n";
+        let (e, line) = error_and_line(text, "", "[z]");
+        assert!(
+            e.contains(&format!("m.toml:{}: travel.home_z", line + 1)),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn every_field_defaults() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("m.toml");
+        std::fs::write(&p, "").unwrap();
+        assert_eq!(load_machine(&p).unwrap(), Machine::default());
+        let text = "[tilt]\nmin = -60.0\n[extrusion]\nwidth = 0.5\n[support]\ntool = 3\n[c]\nrange = [-360.0, 360.0]\n";
         std::fs::write(&p, text).unwrap();
-        let e = load_machine(&p).unwrap_err().to_string();
-        assert!(e.contains("m.toml:") && e.contains("feed"), "{e}");
+        let m = load_machine(&p).unwrap();
+        let d = Machine::default();
+        assert_eq!(
+            m.tilt,
+            AxisLimits {
+                min: -60.0,
+                ..d.tilt
+            }
+        );
+        assert_eq!(
+            m.extrusion,
+            Extrusion {
+                width: 0.5,
+                ..d.extrusion
+            }
+        );
+        assert_eq!(
+            m.support,
+            ToolSettings {
+                tool: 3,
+                ..d.support
+            }
+        );
+        assert_eq!(
+            m.c,
+            CAxis {
+                range: Some([-360.0, 360.0]),
+                ..d.c
+            }
+        );
+        assert_eq!(
+            (m.configuration, m.rotary, m.x),
+            (d.configuration, d.rotary, d.x)
+        );
     }
 }

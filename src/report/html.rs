@@ -6,6 +6,7 @@ use super::plots::Figure;
 use super::{layer_table, summary_rows};
 use crate::kinematics::Machine;
 use crate::plan::Plan;
+use crate::scene::PartSource;
 use crate::simulate::Simulation;
 use std::fmt::Write;
 
@@ -24,6 +25,8 @@ figure{margin:1.5em 0}figcaption{font-weight:bold}pre{background:#f7f7f7;padding
 pub struct ReportContext<'a> {
     /// The toolpath planned.
     pub source: &'a str,
+    /// What the part printed so far was modelled from.
+    pub part: PartSource,
     /// The command line.
     pub command: &'a str,
     /// Names of the layers whose nozzle directions were reversed on loading.
@@ -58,7 +61,7 @@ pub fn report_html(
     figures: &[Figure],
     seconds: f64,
 ) -> String {
-    let mut h = page_start("report", "Motion plan", ctx.source);
+    let mut h = page_start("report", "Motion plan", ctx);
     let _ = writeln!(
         h,
         "<p>{} waypoints planned in {seconds:.2} s.</p>",
@@ -71,20 +74,7 @@ pub fn report_html(
             esc(&ctx.flipped_layers.join(", "))
         );
     }
-    if !plan.warnings.is_empty() {
-        let _ = writeln!(h, "<h2>Warnings</h2><ul id=\"warnings\">");
-        for w in plan.warnings.iter().take(200) {
-            let _ = writeln!(h, "<li>{}</li>", esc(w));
-        }
-        if plan.warnings.len() > 200 {
-            let _ = writeln!(
-                h,
-                "<li>… {} more in report.json</li>",
-                plan.warnings.len() - 200
-            );
-        }
-        let _ = writeln!(h, "</ul>");
-    }
+    warnings_section(&mut h, &super::warnings(ctx.part, &plan.warnings));
     let _ = writeln!(
         h,
         "<h2>Summary</h2><table id=\"summary\"><tr><th></th><th>input</th><th>plan</th></tr>"
@@ -117,7 +107,8 @@ pub fn simulation_html(
     sim: &Simulation,
     figures: &[Figure],
 ) -> String {
-    let mut h = page_start("simulation", "Simulation", ctx.source);
+    let mut h = page_start("simulation", "Simulation", ctx);
+    warnings_section(&mut h, &super::warnings(ctx.part, &[]));
     let _ = writeln!(h, "<h2>Summary</h2><table id=\"summary\">");
     let summary = serde_json::to_value(&sim.summary).unwrap_or_default();
     if let Some(obj) = summary.as_object() {
@@ -151,17 +142,37 @@ pub fn simulation_html(
     page_end(h, m, ctx.command)
 }
 
-/// The page up to its heading: `<title>maamplan {kind} — source</title>`,
-/// `<h1>{heading}: source</h1>`.
-fn page_start(kind: &str, heading: &str, source: &str) -> String {
+/// The page up to its heading and the part model:
+/// `<title>maamplan {kind} — source</title>`, `<h1>{heading}: source</h1>`.
+fn page_start(kind: &str, heading: &str, ctx: &ReportContext) -> String {
     let mut h = String::new();
+    let source = esc(ctx.source);
     let _ = write!(
         h,
-        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan {kind} — {}</title>\n<style>{STYLE}</style></head><body>\n",
-        esc(source)
+        "<!doctype html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>maamplan {kind} — {source}</title>\n<style>{STYLE}</style></head><body>\n",
     );
-    let _ = writeln!(h, "<h1>{heading}: {}</h1>", esc(source));
+    let _ = writeln!(h, "<h1>{heading}: {source}</h1>");
+    let _ = writeln!(
+        h,
+        "<p id=\"part\">Part model: {}.</p>",
+        esc(ctx.part.name())
+    );
     h
+}
+
+/// The run's warnings, the first 200 of them (report.json has all).
+fn warnings_section(h: &mut String, warnings: &[String]) {
+    if warnings.is_empty() {
+        return;
+    }
+    let _ = writeln!(h, "<h2>Warnings</h2><ul id=\"warnings\">");
+    for w in warnings.iter().take(200) {
+        let _ = writeln!(h, "<li>{}</li>", esc(w));
+    }
+    if warnings.len() > 200 {
+        let _ = writeln!(h, "<li>… {} more in report.json</li>", warnings.len() - 200);
+    }
+    let _ = writeln!(h, "</ul>");
 }
 
 /// The machine and the command, and the page's end.

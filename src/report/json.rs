@@ -9,6 +9,7 @@
 use crate::check::{LayerCount, Verdicts};
 use crate::kinematics::Machine;
 use crate::plan::{Plan, Skip};
+use crate::scene::PartSource;
 use crate::simulate::Simulation;
 use crate::toolpath::Toolpath;
 use serde::Serialize;
@@ -49,6 +50,8 @@ pub fn skipped_waypoints(plan: &Plan, toolpath: &Toolpath) -> Vec<SkippedWaypoin
 pub struct PlanRun<'a> {
     /// The toolpath as the user named it.
     pub source: &'a str,
+    /// What the part printed so far was modelled from.
+    pub part: PartSource,
     /// The collision backend's name.
     pub backend: &'a str,
     /// Names of the layers whose nozzle directions were reversed on loading.
@@ -62,8 +65,9 @@ pub struct PlanRun<'a> {
     pub command: &'a str,
 }
 
-/// `plan`'s report.json: the run, the machine, the input's and the plan's
-/// metrics, the skipped waypoints and the warnings.
+/// `plan`'s report.json: the run, the machine, the part model, the
+/// input's and the plan's metrics, the skipped waypoints and the warnings
+/// (the part model's first, [`super::warnings`]).
 pub fn plan_report(
     machine: &Machine,
     plan: &Plan,
@@ -77,6 +81,7 @@ pub fn plan_report(
         .collect();
     json!({
         "source": run.source,
+        "part": run.part.name(),
         "backend": run.backend,
         "machine": machine,
         "margin": plan.margin,
@@ -84,7 +89,7 @@ pub fn plan_report(
         "input": plan.input,
         "plan": plan.plan,
         "skipped": skipped,
-        "warnings": plan.warnings,
+        "warnings": super::warnings(run.part, &plan.warnings),
         "collision_queries": plan.queries,
         "seconds": run.seconds,
         "stages": stages,
@@ -98,6 +103,8 @@ pub struct SimulationRun<'a> {
     pub gcode: &'a str,
     /// The toolpath it was simulated against (or "platform only").
     pub toolpath: &'a str,
+    /// What the part printed so far was modelled from.
+    pub part: PartSource,
     /// Names of the toolpath's layers, by index.
     pub layer_names: &'a [String],
     /// The collision backend's name.
@@ -108,13 +115,16 @@ pub struct SimulationRun<'a> {
     pub command: &'a str,
 }
 
-/// `simulate`'s report.json: the run, the machine, the summary and every
-/// problem at its line, with the name of the layer it reads as.
+/// `simulate`'s report.json: the run, the machine, the part model and its
+/// warnings, the summary and every problem at its line, with the name of
+/// the layer it reads as.
 pub fn simulation_report(machine: &Machine, sim: &Simulation, run: &SimulationRun) -> Value {
     let layer_name = |l: usize| run.layer_names.get(l).cloned().unwrap_or_default();
     json!({
         "gcode": run.gcode,
         "toolpath": run.toolpath,
+        "part": run.part.name(),
+        "warnings": super::warnings(run.part, &[]),
         "backend": run.backend,
         "machine": machine,
         "summary": sim.summary,
@@ -133,6 +143,8 @@ pub fn simulation_report(machine: &Machine, sim: &Simulation, run: &SimulationRu
 pub struct CheckRun<'a> {
     /// The toolpath as the user named it.
     pub source: &'a str,
+    /// What the part printed so far was modelled from.
+    pub part: PartSource,
     /// The collision backend's name.
     pub backend: &'a str,
     /// The safety margin checked at (mm).
@@ -143,12 +155,14 @@ pub struct CheckRun<'a> {
     pub flipped_layers: &'a [String],
 }
 
-/// `check --json`: the totals, each layer's counts (`layers` pairs a
+/// `check --json`: the part model and its warnings, the totals, each layer's counts (`layers` pairs a
 /// layer's name with them) and the colliding waypoints and moves.
 pub fn check_report(run: &CheckRun, layers: &[(&str, LayerCount)], verdicts: &Verdicts) -> Value {
     let total = LayerCount::total(layers.iter().map(|l| &l.1));
     json!({
         "source": run.source,
+        "part": run.part.name(),
+        "warnings": super::warnings(run.part, &[]),
         "waypoints": verdicts.poses.len(),
         "colliding": total.colliding,
         "moves": verdicts.moves_checked(),

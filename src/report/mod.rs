@@ -14,6 +14,22 @@ use crate::kinematics::Machine;
 use crate::plan::cost::CostModel;
 use crate::plan::metrics::{tip_speed, Metrics};
 use crate::plan::Plan;
+use crate::scene::PartSource;
+
+/// A run's warnings as its reports list them: the part model's (only the
+/// platform was checked), then `others` (the planner's).
+pub fn warnings(part: PartSource, others: &[String]) -> Vec<String> {
+    part.warning()
+        .map(str::to_string)
+        .into_iter()
+        .chain(others.iter().cloned())
+        .collect()
+}
+
+/// The line the terminal summaries give the part model.
+pub fn part_line(part: PartSource) -> String {
+    format!("part model: {}", part.name())
+}
 
 /// Per-segment tip speeds (mm/s) of the input and of the plan, over the
 /// segments the plan prints (same section, not a break, neither end

@@ -107,6 +107,11 @@ pub struct SceneConfig {
     pub part: PartModel,
     /// How beads are made, where the part is modelled from them.
     pub beads: BeadSettings,
+    /// Waypoints farther than this from the origin (mm) are out of the
+    /// machine's reach in every orientation
+    /// ([`crate::kinematics::Machine::reach`]): never visited, they do not
+    /// size the contact tolerance. `None`: every waypoint does.
+    pub reach: Option<f32>,
 }
 
 /// A group of part triangles that stay together for the parry backend: the
@@ -372,7 +377,10 @@ impl Scene {
                 scale = scale.max(max_abs(s));
             }
             for w in &l.waypoints {
-                scale = scale.max(w.pos.iter().fold(0.0f32, |a, c| a.max(c.abs())));
+                let [x, y, z] = w.pos;
+                if cfg.reach.is_none_or(|r| x.hypot(y).hypot(z) <= r) {
+                    scale = scale.max(w.pos.iter().fold(0.0f32, |a, c| a.max(c.abs())));
+                }
             }
         }
         let tol = (2e-6 * scale).max(1e-6);

@@ -361,7 +361,19 @@ impl<'a> Columns<'a> {
         // (The batch's temporaries, freed among the new columns: see
         // `release_freed_memory`.)
         release_freed_memory();
-        let open: Vec<usize> = (0..n).filter(|&g| columns.live_count(g) == 0).collect();
+        // A waypoint beyond the machine's reach is out of range in every
+        // orientation: skipped at once rather than searched for one.
+        let reach = setup.machine.reach();
+        let within = |g: &usize| {
+            let [x, y, z] = toolpath.pos[*g];
+            x.hypot(y).hypot(z) <= reach
+        };
+        let (open, beyond): (Vec<usize>, Vec<usize>) = (0..n)
+            .filter(|&g| columns.live_count(g) == 0)
+            .partition(within);
+        for g in beyond {
+            columns.skip[g] = Some(Skip::Unreachable);
+        }
         for &g in &open {
             columns.cursor[g] = 0;
         }
