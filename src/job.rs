@@ -85,6 +85,9 @@ pub struct LoadedJob {
     pub scene: Scene,
     /// Layers whose nozzle directions were reversed by the flip convention.
     pub flipped_layers: Vec<usize>,
+    /// Were the layers found from how the beads stack ([`stacked`]), the
+    /// axes reversed one by one where they point into the material?
+    pub layers_found: bool,
     /// Seconds spent loading and building.
     pub seconds: f64,
 }
@@ -172,6 +175,7 @@ impl LoadedJob {
             || Scene::build_deposited(&toolpath, &head, &platform, &cfg, deposited),
             || beside(&toolpath),
         );
+        let deposited_found = layers_unknown && spec.part != PartModel::Surfaces;
         let scene = scene.map_err(|source| JobError::Scene {
             head: spec
                 .head
@@ -184,9 +188,19 @@ impl LoadedJob {
             toolpath,
             scene,
             flipped_layers,
+            layers_found: deposited_found,
             seconds: t0.elapsed().as_secs_f64(),
         };
         Ok((job, beside_result))
+    }
+
+    /// Why [`LoadedJob::flipped_layers`] were reversed, as messages say it.
+    pub fn flip_reason(&self) -> &'static str {
+        if self.layers_found {
+            "holding nozzle axes that pointed into the material below"
+        } else {
+            "that mostly pointed down"
+        }
     }
 
     /// Names of the flipped layers.

@@ -252,3 +252,32 @@ fn only_the_platform_checked_is_said() {
         assert_eq!(common::stderr(&o).contains(only), warned);
     }
 }
+
+/// In a single file without layers, an axis pointing into the material
+/// below is reversed, and the summary says so in those words (not the
+/// data set's rule for whole layers that mostly point down).
+#[test]
+fn axes_into_the_material_are_reversed_and_said_to_be() {
+    let dir = folder("against");
+    let file = dir.join("part.txt");
+    let down = |k: usize| layer_text(k, " ", "").replace(" 0 0 1\n", " 0 0 -1\n");
+    fs::write(&file, layer_text(0, " ", "") + &down(1) + &down(2)).unwrap();
+    let o = common::maamplan()
+        .args(["plan", "--backend", "cpu", "--no-plots", "-o"])
+        .arg(dir.join("out"))
+        .arg(&file)
+        .output()
+        .unwrap();
+    common::assert_success(&o);
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        said.contains("reversed the nozzle directions of 2 layer(s) holding nozzle axes that pointed into the material below"),
+        "{said}"
+    );
+    let report = common::read_json(&dir.join("out").join("report.json"));
+    assert_eq!(
+        report["flipped_layers"].as_array().unwrap().len(),
+        2,
+        "{report}"
+    );
+}

@@ -103,8 +103,9 @@ pub fn run(a: CheckArgs) -> Result<()> {
     }
     if !flipped.is_empty() {
         println!(
-            "reversed the nozzle directions of {} layer(s) that mostly pointed down: {}",
+            "reversed the nozzle directions of {} layer(s) {}: {}",
             flipped.len(),
+            job.flip_reason(),
             flipped.join(", ")
         );
     }

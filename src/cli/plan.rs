@@ -446,8 +446,9 @@ fn print_summary(
     }
     if !flipped.is_empty() {
         println!(
-            "reversed the nozzle directions of {} layer(s) that mostly pointed down (--keep-normals to keep them): {}",
+            "reversed the nozzle directions of {} layer(s) {} (--keep-normals to keep them): {}",
             flipped.len(),
+            job.flip_reason(),
             flipped.join(", ")
         );
     }

@@ -70,7 +70,7 @@ pub fn report_html(
     if !ctx.flipped_layers.is_empty() {
         let _ = writeln!(
             h,
-            "<p id=\"flipped\">Nozzle directions reversed on loading (more than 20 % pointed down, as the data set's original software reads them): layers {}.</p>",
+            "<p id=\"flipped\">Nozzle directions reversed on loading (in a layer more than 20 % pointed down, as the data set's original software reads them; in a toolpath given without layers, each that pointed into the material below): layers {}.</p>",
             esc(&ctx.flipped_layers.join(", "))
         );
     }
