@@ -30,6 +30,7 @@ fn cfg(part: PartModel) -> SceneConfig {
         head_cache: false,
         part,
         beads: BeadSettings::new(WIDTH, DZ, 5.0),
+        ..SceneConfig::default()
     }
 }
 
