@@ -161,11 +161,12 @@ impl TopGrid {
     /// on): [`TopGrid::path_normal`] at the middle of its path, kept for
     /// the waypoints above it to read.
     pub fn fit_layer(&mut self, first: usize, layer: usize) {
+        let ends = LayerEnds::new(&self.strips, first, layer, self.fit_radius);
         let normals: Vec<Option<DVec3>> = self.strips[first..]
             .par_iter()
             .map(|s| {
                 (s.layer == layer)
-                    .then(|| self.path_normal(0.5 * (s.path[0] + s.path[1]), layer))
+                    .then(|| self.path_normal(0.5 * (s.path[0] + s.path[1]), &ends))
                     .flatten()
             })
             .collect();
@@ -327,31 +328,55 @@ impl TopGrid {
     /// within the fit radius of `q` (the paths alone, not the beads'
     /// guessed orientations), when they spread over a surface rather than
     /// along a line.
-    fn path_normal(&self, q: DVec3, layer: usize) -> Option<DVec3> {
-        let mut strips: Vec<u32> = Vec::new();
+    fn path_normal(&self, q: DVec3, ends: &LayerEnds) -> Option<DVec3> {
         let r = self.fit_radius;
-        self.rings(
-            q,
-            r,
-            || r,
-            |i| {
-                let s = self.tops[i as usize].strip;
-                if self.strips[s as usize].layer == layer {
-                    strips.push(s);
-                }
-                true
-            },
-        );
-        strips.sort_unstable();
-        strips.dedup();
-        let mut points: Vec<DVec3> = strips
-            .iter()
+        let mut points: Vec<DVec3> = ends
+            .near(q)
             .flat_map(|&s| self.strips[s as usize].path)
             .filter(|e| (*e - q).length() <= r)
             .collect();
         points.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).expect("finite"));
         points.dedup();
         plane_normal(&points)
+    }
+}
+
+/// The strips of one layer by the cells (`radius` mm cubes) their path's
+/// ends lie in: every end within `radius` of a point is listed in the 27
+/// cells around the point's.
+struct LayerEnds {
+    radius: f64,
+    cells: HashMap<[i32; 3], Vec<u32>>,
+}
+
+impl LayerEnds {
+    /// The strips of `layer` from `first` on.
+    fn new(strips: &[Strip], first: usize, layer: usize, radius: f64) -> LayerEnds {
+        let radius = radius.max(1e-3);
+        let mut cells: HashMap<[i32; 3], Vec<u32>> = HashMap::default();
+        for (i, s) in strips.iter().enumerate().skip(first) {
+            if s.layer != layer {
+                continue;
+            }
+            let [a, b] = s.path.map(|e| (e / radius).floor().as_ivec3().to_array());
+            cells.entry(a).or_default().push(i as u32);
+            if b != a {
+                cells.entry(b).or_default().push(i as u32);
+            }
+        }
+        LayerEnds { radius, cells }
+    }
+
+    /// The strips with an end in the cells around `q`'s (one with its
+    /// ends in two of them comes twice: callers dedup its points).
+    fn near(&self, q: DVec3) -> impl Iterator<Item = &u32> {
+        let c = (q / self.radius).floor().as_ivec3().to_array();
+        (-1..=1)
+            .flat_map(move |x| {
+                (-1..=1).flat_map(move |y| (-1..=1).map(move |z| [c[0] + x, c[1] + y, c[2] + z]))
+            })
+            .filter_map(|k| self.cells.get(&k))
+            .flatten()
     }
 }
 
