@@ -95,7 +95,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if let Some(out) = &a.out {
         check_output(out)?;
     }
-    let moves = load_program(&a.gcode, &machine)?;
+    let moves = load_program(&a.gcode, &machine)?.moves;
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
     let (source, toolpath, mut scene) = load_scene(&a, &machine)?;

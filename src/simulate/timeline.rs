@@ -199,6 +199,7 @@ mod tests {
             inverse_time: false,
             tcp: false,
             tool: 1,
+            dwell: 0.0,
         }
     }
 
