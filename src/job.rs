@@ -16,6 +16,8 @@ use crate::geometry::{Aabb, Mesh};
 use crate::io::mesh::load_mesh;
 use crate::io::toolpath_folder::load_toolpath;
 use crate::io::{InputError, Placement};
+use crate::kinematics::Machine;
+use crate::program_toolpath::{looks_like_program, ProgramToolpath};
 use crate::scene::{
     beads, BeadSettings, HeadConfig, PartGroup, PartModel, Scene, SceneConfig, SceneError,
 };
@@ -65,6 +67,8 @@ pub struct JobSpec {
     /// How beads are made where the part is modelled from them (the
     /// machine's extrusion).
     pub beads: BeadSettings,
+    /// The machine a G-code program given as the toolpath is read for.
+    pub machine: Machine,
 }
 
 /// A job loaded from its [`JobSpec`]: the toolpath with the conventions
@@ -81,20 +85,24 @@ pub struct LoadedJob {
     pub flipped_layers: Vec<usize>,
     /// Seconds spent loading and building.
     pub seconds: f64,
+    /// A program given as the toolpath: the distance that separates its
+    /// sections ([`ProgramToolpath::sections`]).
+    pub jump: Option<f64>,
 }
 
 impl LoadedJob {
     /// Load the inputs of `spec`, apply the conventions and build the scene.
     pub fn load(spec: &JobSpec) -> Result<LoadedJob, JobError> {
-        Ok(LoadedJob::load_beside(spec, |_| ())?.0)
+        Ok(LoadedJob::load_beside(spec, |_, _| ())?.0)
     }
 
     /// [`LoadedJob::load`], running `beside` on the toolpath (conventions
-    /// applied) while the scene is built: work that needs only the
-    /// toolpath fills the cores the scene's build leaves idle.
+    /// applied) and a program's section distance ([`LoadedJob::jump`])
+    /// while the scene is built: work that needs only the toolpath fills
+    /// the cores the scene's build leaves idle.
     pub fn load_beside<T: Send>(
         spec: &JobSpec,
-        beside: impl FnOnce(&Toolpath) -> T + Send,
+        beside: impl FnOnce(&Toolpath, Option<f64>) -> T + Send,
     ) -> Result<(LoadedJob, T), JobError> {
         let t0 = Instant::now();
         if !(spec.clearance >= 0.0 && spec.clearance.is_finite()) {
@@ -103,7 +111,14 @@ impl LoadedJob {
             ));
         }
         let place = &spec.placement;
+        let mut program = None;
         let (source, mut toolpath, default_head, default_platform) = match &spec.toolpath {
+            Some(p) if p.is_file() && looks_like_program(p) => {
+                let pt = ProgramToolpath::load(p, &spec.machine)?.placed(place);
+                let tp = pt.toolpath.clone();
+                program = Some(pt);
+                (p.display().to_string(), tp, None, None)
+            }
             Some(p) => (
                 p.display().to_string(),
                 load_toolpath(p, place)?,
@@ -137,6 +152,9 @@ impl LoadedJob {
         };
         if let Some(deg) = spec.tilt_deg {
             toolpath.tilt_directions(deg);
+            if let Some(pt) = &mut program {
+                pt.toolpath.tilt_directions(deg);
+            }
         }
         let platform = match &spec.platform {
             Some(p) => load_mesh(p)?,
@@ -144,7 +162,14 @@ impl LoadedJob {
         };
         let layers_unknown = toolpath.layers.len() == 1 && toolpath.layers[0].surface.is_none();
         let mut deposited = None;
-        let flipped_layers = if layers_unknown && spec.part != PartModel::Surfaces {
+        let mut jump = None;
+        // A program's nozzle directions are the machine's: none is flipped.
+        let flipped_layers = if let Some(pt) = &program {
+            let d = pt.deposit(&platform, &spec.beads, &spec.machine);
+            jump = Some(pt.sections(&d.toolpath).jump);
+            (toolpath, deposited) = (d.toolpath, Some(d.groups));
+            Vec::new()
+        } else if layers_unknown && spec.part != PartModel::Surfaces {
             let (stacked, flipped, beads) =
                 stacked(&toolpath, &platform, &spec.beads, !spec.keep_normals);
             (toolpath, deposited) = (stacked, Some(beads));
@@ -161,7 +186,7 @@ impl LoadedJob {
         let cfg = scene_config(spec.clearance, spec.part, spec.beads);
         let (scene, beside_result) = rayon::join(
             || Scene::build_deposited(&toolpath, &head, &platform, &cfg, deposited),
-            || beside(&toolpath),
+            || beside(&toolpath, jump),
         );
         let scene = scene.map_err(|source| JobError::Scene {
             head: spec
@@ -176,6 +201,7 @@ impl LoadedJob {
             scene,
             flipped_layers,
             seconds: t0.elapsed().as_secs_f64(),
+            jump,
         };
         Ok((job, beside_result))
     }

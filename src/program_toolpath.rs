@@ -30,7 +30,7 @@
 
 use crate::geometry::Mesh;
 use crate::io::gcode_read::{axes_of, load_program, GcodeMove, Program};
-use crate::io::InputError;
+use crate::io::{InputError, Placement};
 use crate::kinematics::{forward, Machine};
 use crate::scene::beads::{self, BeadPath, BeadSettings, DEFAULT_GAP};
 use crate::scene::{stamp_of, PartGroup};
@@ -112,6 +112,18 @@ impl ProgramToolpath {
             ));
         }
         Ok(pt)
+    }
+
+    /// The toolpath moved by `place` (`--y-up`, `--place`), as a toolpath
+    /// file is.
+    pub fn placed(mut self, place: &Placement) -> ProgramToolpath {
+        for l in &mut self.toolpath.layers {
+            for w in &mut l.waypoints {
+                w.pos = place.point(w.pos);
+                w.dir = place.direction(w.dir);
+            }
+        }
+        self
     }
 
     /// The toolpath `program` prints on machine `m`.

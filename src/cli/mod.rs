@@ -127,7 +127,7 @@ impl SceneArgs {
     /// Load the inputs (or the built-in example) and build the scene,
     /// beads (where the part is modelled from them) as `machine` lays them.
     pub fn load(&self, machine: &Machine) -> Result<LoadedJob> {
-        Ok(self.load_beside(machine, |_| ())?.0)
+        Ok(self.load_beside(machine, |_, _| ())?.0)
     }
 
     /// [`SceneArgs::load`], running `beside` on the toolpath while the
@@ -135,7 +135,7 @@ impl SceneArgs {
     pub fn load_beside<T: Send>(
         &self,
         machine: &Machine,
-        beside: impl FnOnce(&Toolpath) -> T + Send,
+        beside: impl FnOnce(&Toolpath, Option<f64>) -> T + Send,
     ) -> Result<(LoadedJob, T)> {
         if let Some(t) = self.tilt {
             if !t.is_finite() {
@@ -155,6 +155,7 @@ impl SceneArgs {
             tilt_deg: self.tilt,
             part: self.part.model(),
             beads: BeadSettings::of_machine(machine),
+            machine: machine.clone(),
         };
         LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),
