@@ -14,10 +14,11 @@
 //! and tool-centre-point control (`G43.4`/`G49`, `TRAORI`/`TRAFOOF`: X Y
 //! Z are then the tip in the part frame, turned into machine axes by
 //! inverse kinematics). Rotary axes are read with the machine file's
-//! letters and signs. Codes that change nothing the motion depends on
-//! (`G17 G21 G40 G80 G90`, spindle, coolant, temperatures, fans) are
-//! taken as they are. Anything it cannot be sure of is an error naming
-//! the line: an unknown word or code (`G20` inches among them), a value
+//! letters and signs. Lengths after `G20` (X Y Z, the extruder, `G94`
+//! feeds) are inches, converted to millimetres until `G21`. Codes that
+//! change nothing the motion depends on (`G17 G40 G80 G90`, spindle,
+//! coolant, temperatures, fans) are taken as they are. Anything it cannot
+//! be sure of is an error naming the line: an unknown word or code, a value
 //! that is not a finite number, a move before every axis has a position
 //! (home with `G28 X… Y… Z… B… C…` or give every axis on the first move).
 
@@ -122,6 +123,8 @@ enum Code {
     RelativeE(bool),
     /// `M6`: the tool `T` selects is changed to.
     ToolChange,
+    /// `G20` (true: inches) or `G21` (millimetres).
+    Inches(bool),
     /// A code that changes nothing the motion depends on.
     Inert,
 }
@@ -146,12 +149,11 @@ fn code(c: &str) -> Result<Code, String> {
         // distances, path blending; program stops and ends; spindle (an
         // extruder motor on a converted machine), coolant, motors off;
         // temperatures and fans.
-        "G17" | "G21" | "G40" | "G80" | "G90" | "G61" | "G64" | "M0" | "M1" | "M2" | "M30"
-        | "M3" | "M4" | "M5" | "M7" | "M8" | "M9" | "M84" | "M104" | "M109" | "M140" | "M190"
-        | "M106" | "M107" => Code::Inert,
-        "G20" => {
-            return Err("G20 (inches) is not read: write the program in millimetres (G21)".into())
-        }
+        "G17" | "G40" | "G80" | "G90" | "G61" | "G64" | "M0" | "M1" | "M2" | "M30" | "M3"
+        | "M4" | "M5" | "M7" | "M8" | "M9" | "M84" | "M104" | "M109" | "M140" | "M190" | "M106"
+        | "M107" => Code::Inert,
+        "G20" => Code::Inches(true),
+        "G21" => Code::Inches(false),
         c => match c.strip_prefix('G').and_then(|n| n.parse::<usize>().ok()) {
             Some(n @ 54..=59) => Code::Work(n - 54),
             _ => return Err(format!("unsupported code {c}")),
@@ -160,7 +162,7 @@ fn code(c: &str) -> Result<Code, String> {
 }
 
 /// What [`code`]'s refusal adds: the vocabulary read.
-const VOCABULARY: &str = "maamplan reads G0/G1 (G90, absolute), G4 P/S, G17, G21, G28, G40, G43.4/G49, G53, G54-G59, G80, G92 E, G93/G94, TRAORI/TRAFOOF, T<n> and M6, M3/M5, M82/M83, M104/M109, M140/M190, M106/M107, M0-M2, M30 (README, G-code vocabulary)";
+const VOCABULARY: &str = "maamplan reads G0/G1 (G90, absolute), G4 P/S, G17, G20/G21, G28, G40, G43.4/G49, G53, G54-G59, G80, G92 E, G93/G94, TRAORI/TRAFOOF, T<n> and M6, M3/M5, M82/M83, M104/M109, M140/M190, M106/M107, M0-M2, M30 (README, G-code vocabulary)";
 
 /// The motion lines of the program in the file at `path` ([`parse_program`]),
 /// every problem an [`InputError`] naming the file: unreadable, a line the
@@ -271,6 +273,8 @@ struct Controller<'a> {
     motion: Option<bool>,
     /// The work coordinate system (0: `G54`).
     work: usize,
+    /// Millimetres per unit of length the program writes (25.4 after `G20`).
+    unit: f64,
 }
 
 impl<'a> Controller<'a> {
@@ -289,6 +293,7 @@ impl<'a> Controller<'a> {
             tool: 0,
             motion: None,
             work: 0,
+            unit: 1.0,
         }
     }
 
@@ -302,10 +307,6 @@ impl<'a> Controller<'a> {
     ) -> Result<Option<GcodeMove>, String> {
         let codes =
             LineCodes::of(words).map_err(|e| format!("{e} in `{}`: {VOCABULARY}", raw.trim()))?;
-        let (vals, params) = self.slots(&words.values, raw)?;
-        if let (Some(t), false) = (params.tool, codes.other_m) {
-            self.tool = t;
-        }
         let mut machine_coordinates = false;
         for k in &codes.modes {
             match *k {
@@ -314,8 +315,13 @@ impl<'a> Controller<'a> {
                 Code::Work(w) => self.work = w,
                 Code::MachineCoordinates => machine_coordinates = true,
                 Code::RelativeE(on) => self.relative_e = on,
+                Code::Inches(on) => self.unit = if on { 25.4 } else { 1.0 },
                 _ => {}
             }
+        }
+        let (vals, params) = self.slots(&words.values, raw)?;
+        if let (Some(t), false) = (params.tool, codes.other_m) {
+            self.tool = t;
         }
         if let Some(x) = vals[6] {
             if x <= 0.0 {
@@ -392,7 +398,9 @@ impl<'a> Controller<'a> {
                     ))
                 }
             };
-            vals[slot] = Some(x);
+            // Lengths in the program's unit; an inverse-time F is none.
+            let length = matches!(slot, 0..=2 | 5) || (slot == 6 && !self.inverse_time);
+            vals[slot] = Some(if length { x * self.unit } else { x });
         }
         Ok((vals, params))
     }
