@@ -126,27 +126,12 @@ impl LoadedJob {
                 None,
             ),
             None => {
-                let job = default_job::job();
-                let tp = Toolpath {
-                    layers: job
-                        .toolpath
-                        .layers
-                        .into_iter()
-                        .map(|mut l| {
-                            for w in &mut l.waypoints {
-                                w.pos = place.point(w.pos);
-                                w.dir = place.direction(w.dir);
-                            }
-                            l.surface = l.surface.map(|s| s.map_vertices(|v| place.point(v)));
-                            l
-                        })
-                        .collect(),
-                };
+                let (tp, head, platform) = placed_default_job(place);
                 (
                     "embedded default".to_string(),
                     tp,
-                    Some(job.head),
-                    Some(job.platform),
+                    Some(head),
+                    Some(platform),
                 )
             }
         };
@@ -213,6 +198,28 @@ impl LoadedJob {
             .map(|&k| self.toolpath.layers[k].name.clone())
             .collect()
     }
+}
+
+/// The embedded default job's toolpath (its layers' surfaces too) moved
+/// by `place`, its head and its platform.
+fn placed_default_job(place: &Placement) -> (Toolpath, Mesh, Mesh) {
+    let job = default_job::job();
+    let tp = Toolpath {
+        layers: job
+            .toolpath
+            .layers
+            .into_iter()
+            .map(|mut l| {
+                for w in &mut l.waypoints {
+                    w.pos = place.point(w.pos);
+                    w.dir = place.direction(w.dir);
+                }
+                l.surface = l.surface.map(|s| s.map_vertices(|v| place.point(v)));
+                l
+            })
+            .collect(),
+    };
+    (tp, job.head, job.platform)
 }
 
 /// A toolpath given without its layers (one layer, no surface: a single
