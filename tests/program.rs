@@ -402,3 +402,35 @@ fn plan_on_the_reference_gcode_comes_back_collision_free() {
     common::assert_success(&o);
     assert_eq!(colliding_lines(&sim), Vec::<usize>::new(), "{}", stderr(&o));
 }
+
+/// A program that prints nothing, simulated without a toolpath or a
+/// platform: a plate under its lowest tip, and a warning that only the
+/// platform was checked — in well under a minute (a plate under no part
+/// at all was unbounded).
+#[test]
+fn simulate_alone_of_a_program_that_prints_nothing_checks_a_plate_under_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let g = dir.path().join("travel.gcode");
+    std::fs::write(&g, format!("{HOME}G0 X10 Y0 Z5\nG1 X20 F600\n")).unwrap();
+    let mut child = common::maamplan()
+        .args(["simulate", g.to_str().unwrap(), "--backend", "cpu"])
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed().as_secs() > 60 {
+            child.kill().unwrap();
+            panic!("simulate did not finish in a minute");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let o = child.wait_with_output().unwrap();
+    common::assert_success(&o);
+    assert!(
+        stderr(&o).contains("only the platform was checked"),
+        "{}",
+        stderr(&o)
+    );
+}

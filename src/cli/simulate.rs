@@ -11,10 +11,9 @@ use maamplan::geometry::Mesh;
 use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::job::{plate_under, scene_config};
+use maamplan::job::scene_config;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions, Progress};
-use maamplan::program_toolpath::ProgramToolpath;
 use maamplan::report::html::{simulation_html, ReportContext};
 use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::moves_csv::write_moves_csv;
@@ -89,8 +88,7 @@ fn load_scene(
         }
         // A plate under the part: its toolpath says where that is.
         None => {
-            let tp = ProgramToolpath::of(program, machine).toolpath;
-            let platform = plate_under(&tp);
+            let platform = simulate::platform_under(program, machine);
             let part = own(&platform);
             (platform, part)
         }

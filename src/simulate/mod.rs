@@ -29,7 +29,7 @@ use crate::plan::layer_reading::NearestLayer;
 use crate::prove::{MoveSpec, Prover, Ticker};
 use crate::toolpath::Toolpath;
 pub use measure::{MoveReport, Problem, ProblemKind};
-pub use own_part::{own_part, OwnPart};
+pub use own_part::{own_part, platform_under, OwnPart};
 use serde::Serialize;
 pub use timeline::Timeline;
 

@@ -7,11 +7,12 @@
 
 use super::Timeline;
 use crate::geometry::Mesh;
-use crate::io::gcode_read::Program;
+use crate::io::gcode_read::{axes_of, Program};
+use crate::job::plate_under;
 use crate::kinematics::Machine;
 use crate::program_toolpath::ProgramToolpath;
 use crate::scene::{BeadSettings, PartGroup};
-use crate::toolpath::Toolpath;
+use crate::toolpath::{Layer, Toolpath, Waypoint};
 
 /// What a program deposits, and when.
 #[derive(Clone, Debug)]
@@ -36,4 +37,27 @@ pub fn own_part(program: &Program, m: &Machine, platform: &Mesh, s: &BeadSetting
         groups: pt.printed_only(deposited.groups),
         toolpath: deposited.toolpath,
     }
+}
+
+/// A plate under the part `program` prints on machine `m` (its lowest
+/// printed tip), or under its lowest tip when it prints nothing.
+pub fn platform_under(program: &Program, m: &Machine) -> Mesh {
+    let tp = ProgramToolpath::of(program, m).toolpath;
+    if tp.waypoint_count() > 0 {
+        return plate_under(&tp);
+    }
+    let waypoints = program
+        .moves
+        .iter()
+        .map(|mv| Waypoint {
+            pos: m.tip(&axes_of(&mv.to)).map(|x| x as f32),
+            dir: [0.0, 0.0, 1.0],
+        })
+        .collect();
+    plate_under(&Toolpath {
+        layers: vec![Layer {
+            waypoints,
+            ..Layer::default()
+        }],
+    })
 }
