@@ -434,3 +434,27 @@ fn simulate_alone_of_a_program_that_prints_nothing_checks_a_plate_under_it() {
         stderr(&o)
     );
 }
+
+/// A program as CNC-style multi-axis printing pipelines write it, the
+/// extruder as the A axis and F on every line, is read whole.
+#[test]
+fn a_cnc_style_program_is_read_whole() {
+    let text = "%\n(converted mill)\nG21 G40 G49 G80\nG17 G90 G94\nT1 M6\nG54\nM3 S100\n\
+                G0 X0 Y-10 Z0.5 B0 C0 F3000\nG1 X0 Y0 Z0.5 B0 C0 A0.5 F1200\n\
+                G1 X0 Y10 Z0.5 B0 C0 A1.0 F1200\nG4 P200\nG0 Z30 F3000\nM5\nM30\n%\n";
+    let mut m = Machine::default();
+    m.post.extruder_letter = Some('A');
+    let p = parse_program(text, &m).unwrap();
+    let printing: Vec<usize> = p
+        .moves
+        .iter()
+        .filter(|mv| mv.extrudes())
+        .map(|mv| mv.line)
+        .collect();
+    assert_eq!(printing, [9, 10]);
+    assert!(p.moves.iter().all(|mv| mv.tool == 1));
+    // The first G0 gives every axis: the machine starts there. Then two
+    // beads, the dwell and the lift.
+    assert_eq!(p.moves.len(), 4);
+    assert_eq!(p.moves[2].dwell, 0.2);
+}

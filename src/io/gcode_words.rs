@@ -1,7 +1,8 @@
 //! The words of one G-code line, as controllers read them: letters each
 //! followed by a number, separated by spaces or run together
 //! (`G1X1.5Y2`), any number of `G`/`M` codes on a line (`G21 G40 G49 G80`,
-//! `T1 M6`), `;` and `( )` comments, a leading `N` line number. Whether a
+//! `T1 M6`), `;` and `( )` comments, a leading `N` line number, `%` lines
+//! (a program's start and end on tape-era controllers). Whether a
 //! comment marks a layer change (`;LAYER:3`, `;LAYER_CHANGE`, `; layer 3`)
 //! is kept: it is the only word of a program on where its layers begin.
 
@@ -67,6 +68,10 @@ pub fn line_words(raw: &str) -> Result<LineWords, String> {
         }
     }
     let trimmed = text.trim().to_ascii_uppercase();
+    // `%` marks the start and end of a program on tape-era controllers.
+    if trimmed == "%" {
+        return Ok(out);
+    }
     if trimmed == "TRAORI" || trimmed == "TRAFOOF" {
         out.codes.push(trimmed);
         return Ok(out);
@@ -137,6 +142,7 @@ mod tests {
         assert_eq!(r("G43.4 H1"), w(&["G43.4"], &[('H', 1.0)]));
         assert_eq!(r(" TRAORI "), w(&["TRAORI"], &[]));
         assert!(r("; only a comment").is_empty());
+        assert!(r("%").is_empty() && r(" % (start)").is_empty());
         // Several codes on a line, and a tool with its change.
         assert_eq!(r("G21 G40 G49 G80"), w(&["G21", "G40", "G49", "G80"], &[]));
         assert_eq!(r("T1 M06"), w(&["M6"], &[('T', 1.0)]));
