@@ -188,7 +188,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let (job, prepared) = a.scene.load_beside(&machine, |toolpath, jump| {
         let opts = PlanOptions {
             jump: jump.unwrap_or(opts.jump),
-            ..opts.clone()
+            ..opts
         };
         Prepared::new(toolpath, &machine, &opts)
     })?;

@@ -190,7 +190,7 @@ impl Writer<'_> {
                     && mv.to.c == from.c =>
             {
                 self.out.push_str("G0 Z");
-                push_f3(&mut self.out, mv.to.xyz[2]);
+                push_f3(&mut self.out, mv.to.xyz[2] - self.work[2]);
             }
             MoveKind::Lift | MoveKind::Lower | MoveKind::Travel => {
                 self.out.push_str("G0 ");
