@@ -42,8 +42,9 @@ enum Command {
     Check(check::CheckArgs),
     /// Measure poses per second of several backends on the same queries.
     Bench(bench::BenchArgs),
-    /// Turn a toolpath into G-code the machine can run: every move clear of
-    /// the part, smooth through the vertical, within the extruder's speed range.
+    /// Turn a toolpath (or an existing program) into G-code the machine can
+    /// run: every move clear of the part, smooth through the vertical,
+    /// within the extruder's speed range.
     Plan(plan::PlanArgs),
     /// List GPU adapters, their kind (hardware / software) and limits.
     Info,
@@ -63,8 +64,9 @@ enum Command {
 /// Inputs shared by every command.
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj) or a single
-    /// waypoint file; omitted: the built-in example job.
+    /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj), a single
+    /// waypoint file, or a G-code program (the tip path it prints, read
+    /// with --machine); omitted: the built-in example job.
     toolpath: Option<PathBuf>,
     /// Print head mesh (OBJ/STL/glTF): nozzle tip at the origin, nozzle
     /// pointing down along -z (the head extends up +z), closed

@@ -28,7 +28,8 @@ use std::time::Instant;
 /// Arguments of `simulate`.
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
-    /// The program (G-code) to simulate.
+    /// The program (G-code) to simulate: against the TOOLPATH's layers
+    /// when given, else against the beads the program lays itself.
     gcode: PathBuf,
     #[command(flatten)]
     scene: SceneArgs,
