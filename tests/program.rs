@@ -458,3 +458,24 @@ fn a_cnc_style_program_is_read_whole() {
     assert_eq!(p.moves.len(), 4);
     assert_eq!(p.moves[2].dwell, 0.2);
 }
+
+/// A program that never extrudes gives `plan` no toolpath: one line
+/// naming the file, exit 2, nothing written.
+#[test]
+fn plan_refuses_a_program_that_prints_nothing() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let (_d, _g, o) = run_on(
+        &format!("{HOME}G0 X10 Y0 Z5\nG1 X20 F600\n"),
+        "travel.gcode",
+        &["plan", "--backend", "cpu", "-o", out.to_str().unwrap()],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(
+        err.contains("travel.gcode") && err.contains("never extrudes"),
+        "{err}"
+    );
+    assert!(!out.exists());
+}
