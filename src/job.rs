@@ -16,6 +16,8 @@ use crate::geometry::{Aabb, Mesh};
 use crate::io::mesh::load_mesh;
 use crate::io::toolpath_folder::load_toolpath;
 use crate::io::{InputError, Placement};
+use crate::kinematics::Machine;
+use crate::program_toolpath::{looks_like_program, ProgramToolpath};
 use crate::scene::{
     beads, BeadSettings, HeadConfig, PartGroup, PartModel, Scene, SceneConfig, SceneError,
 };
@@ -71,6 +73,8 @@ pub struct JobSpec {
     /// contact tolerance); a typo far away costs nothing. `None`: no
     /// bound.
     pub reach: Option<f64>,
+    /// The machine a G-code program given as the toolpath is read for.
+    pub machine: Machine,
 }
 
 /// A job loaded from its [`JobSpec`]: the toolpath with the conventions
@@ -90,20 +94,24 @@ pub struct LoadedJob {
     pub layers_found: bool,
     /// Seconds spent loading and building.
     pub seconds: f64,
+    /// A program given as the toolpath: the distance that separates its
+    /// sections ([`ProgramToolpath::sections`]).
+    pub jump: Option<f64>,
 }
 
 impl LoadedJob {
     /// Load the inputs of `spec`, apply the conventions and build the scene.
     pub fn load(spec: &JobSpec) -> Result<LoadedJob, JobError> {
-        Ok(LoadedJob::load_beside(spec, |_| ())?.0)
+        Ok(LoadedJob::load_beside(spec, |_, _| ())?.0)
     }
 
     /// [`LoadedJob::load`], running `beside` on the toolpath (conventions
-    /// applied) while the scene is built: work that needs only the
-    /// toolpath fills the cores the scene's build leaves idle.
+    /// applied) and a program's section distance ([`LoadedJob::jump`])
+    /// while the scene is built: work that needs only the toolpath fills
+    /// the cores the scene's build leaves idle.
     pub fn load_beside<T: Send>(
         spec: &JobSpec,
-        beside: impl FnOnce(&Toolpath) -> T + Send,
+        beside: impl FnOnce(&Toolpath, Option<f64>) -> T + Send,
     ) -> Result<(LoadedJob, T), JobError> {
         let t0 = Instant::now();
         if !(spec.clearance >= 0.0 && spec.clearance.is_finite()) {
@@ -112,7 +120,14 @@ impl LoadedJob {
             ));
         }
         let place = &spec.placement;
+        let mut program = None;
         let (source, mut toolpath, default_head, default_platform) = match &spec.toolpath {
+            Some(p) if p.is_file() && looks_like_program(p) => {
+                let pt = ProgramToolpath::load(p, &spec.machine)?.placed(place);
+                let tp = pt.toolpath.clone();
+                program = Some(pt);
+                (p.display().to_string(), tp, None, None)
+            }
             Some(p) => (
                 p.display().to_string(),
                 load_toolpath(p, place)?,
@@ -120,32 +135,20 @@ impl LoadedJob {
                 None,
             ),
             None => {
-                let job = default_job::job();
-                let tp = Toolpath {
-                    layers: job
-                        .toolpath
-                        .layers
-                        .into_iter()
-                        .map(|mut l| {
-                            for w in &mut l.waypoints {
-                                w.pos = place.point(w.pos);
-                                w.dir = place.direction(w.dir);
-                            }
-                            l.surface = l.surface.map(|s| s.map_vertices(|v| place.point(v)));
-                            l
-                        })
-                        .collect(),
-                };
+                let (tp, head, platform) = placed_default_job(place);
                 (
                     "embedded default".to_string(),
                     tp,
-                    Some(job.head),
-                    Some(job.platform),
+                    Some(head),
+                    Some(platform),
                 )
             }
         };
         if let Some(deg) = spec.tilt_deg {
             toolpath.tilt_directions(deg);
+            if let Some(pt) = &mut program {
+                pt.toolpath.tilt_directions(deg);
+            }
         }
         let platform = match &spec.platform {
             Some(p) => load_mesh(p)?,
@@ -153,7 +156,14 @@ impl LoadedJob {
         };
         let layers_unknown = toolpath.layers.len() == 1 && toolpath.layers[0].surface.is_none();
         let mut deposited = None;
-        let flipped_layers = if layers_unknown && spec.part != PartModel::Surfaces {
+        let mut jump = None;
+        // A program's nozzle directions are the machine's: none is flipped.
+        let flipped_layers = if let Some(pt) = &program {
+            let d = pt.deposit(&platform, &spec.beads, &spec.machine);
+            jump = Some(pt.sections(&d.toolpath).jump);
+            (toolpath, deposited) = (d.toolpath, Some(d.groups));
+            Vec::new()
+        } else if layers_unknown && spec.part != PartModel::Surfaces {
             let (stacked, flipped, beads) =
                 stacked(&toolpath, &platform, &spec.beads, !spec.keep_normals);
             (toolpath, deposited) = (stacked, Some(beads));
@@ -173,7 +183,7 @@ impl LoadedJob {
         };
         let (scene, beside_result) = rayon::join(
             || Scene::build_deposited(&toolpath, &head, &platform, &cfg, deposited),
-            || beside(&toolpath),
+            || beside(&toolpath, jump),
         );
         let deposited_found = layers_unknown && spec.part != PartModel::Surfaces;
         let scene = scene.map_err(|source| JobError::Scene {
@@ -190,6 +200,7 @@ impl LoadedJob {
             flipped_layers,
             layers_found: deposited_found,
             seconds: t0.elapsed().as_secs_f64(),
+            jump,
         };
         Ok((job, beside_result))
     }
@@ -210,6 +221,28 @@ impl LoadedJob {
             .map(|&k| self.toolpath.layers[k].name.clone())
             .collect()
     }
+}
+
+/// The embedded default job's toolpath (its layers' surfaces too) moved
+/// by `place`, its head and its platform.
+fn placed_default_job(place: &Placement) -> (Toolpath, Mesh, Mesh) {
+    let job = default_job::job();
+    let tp = Toolpath {
+        layers: job
+            .toolpath
+            .layers
+            .into_iter()
+            .map(|mut l| {
+                for w in &mut l.waypoints {
+                    w.pos = place.point(w.pos);
+                    w.dir = place.direction(w.dir);
+                }
+                l.surface = l.surface.map(|s| s.map_vertices(|v| place.point(v)));
+                l
+            })
+            .collect(),
+    };
+    (tp, job.head, job.platform)
 }
 
 /// A toolpath given without its layers (one layer, no surface: a single

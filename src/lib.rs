@@ -31,6 +31,7 @@ pub mod io;
 pub mod job;
 pub mod kinematics;
 pub mod plan;
+pub mod program_toolpath;
 pub mod prove;
 pub mod report;
 pub mod scene;

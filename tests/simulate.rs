@@ -76,7 +76,8 @@ fn plan_for(tp: &Toolpath, scene: &Scene, m: &Machine) -> Plan {
     common::plan_cpu(scene, tp, m, &PlanOptions::default())
 }
 
-/// Every combination the writer offers, with unusual letters and signs.
+/// Every combination the writer offers, with unusual letters, signs and
+/// work offsets.
 fn posts() -> Vec<Post> {
     let mut v = Vec::new();
     for dialect in [Dialect::Joint, Dialect::G43_4, Dialect::Traori] {
@@ -91,6 +92,15 @@ fn posts() -> Vec<Post> {
                     c_sign: if feed == FeedMode::G93 { -1.0 } else { 1.0 },
                     feed,
                     extrusion,
+                    // A converted CNC machine's extruder axis, and a work
+                    // offset the program is written relative to.
+                    extruder_letter: odd.then_some('U'),
+                    dwell_p: None,
+                    work_offsets: if odd {
+                        [("G54".to_string(), [5.0, -3.0, 2.0])].into()
+                    } else {
+                        Default::default()
+                    },
                 });
             }
         }

@@ -42,8 +42,9 @@ enum Command {
     Check(check::CheckArgs),
     /// Measure poses per second of several backends on the same queries.
     Bench(bench::BenchArgs),
-    /// Turn a toolpath into G-code the machine can run: every move clear of
-    /// the part, smooth through the vertical, within the extruder's speed range.
+    /// Turn a toolpath (or an existing program) into G-code the machine can
+    /// run: every move clear of the part, smooth through the vertical,
+    /// within the extruder's speed range.
     Plan(plan::PlanArgs),
     /// List GPU adapters, their kind (hardware / software) and limits.
     Info,
@@ -63,8 +64,9 @@ enum Command {
 /// Inputs shared by every command.
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {
-    /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj) or a single
-    /// waypoint file; omitted: the built-in example job.
+    /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj), a single
+    /// waypoint file, or a G-code program (the tip path it prints, read
+    /// with --machine); omitted: the built-in example job.
     toolpath: Option<PathBuf>,
     /// Print head mesh (OBJ/STL/glTF): nozzle tip at the origin, nozzle
     /// pointing down along -z (the head extends up +z), closed
@@ -127,7 +129,7 @@ impl SceneArgs {
     /// Load the inputs (or the built-in example) and build the scene,
     /// beads (where the part is modelled from them) as `machine` lays them.
     pub fn load(&self, machine: &Machine) -> Result<LoadedJob> {
-        Ok(self.load_beside(machine, |_| ())?.0)
+        Ok(self.load_beside(machine, |_, _| ())?.0)
     }
 
     /// [`SceneArgs::load`], running `beside` on the toolpath while the
@@ -135,7 +137,7 @@ impl SceneArgs {
     pub fn load_beside<T: Send>(
         &self,
         machine: &Machine,
-        beside: impl FnOnce(&Toolpath) -> T + Send,
+        beside: impl FnOnce(&Toolpath, Option<f64>) -> T + Send,
     ) -> Result<(LoadedJob, T)> {
         if let Some(t) = self.tilt {
             if !t.is_finite() {
@@ -156,6 +158,7 @@ impl SceneArgs {
             part: self.part.model(),
             beads: BeadSettings::of_machine(machine),
             reach: Some(machine.reach()),
+            machine: machine.clone(),
         };
         LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
             JobError::Setting(m) => UsageError(m).into(),

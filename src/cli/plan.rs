@@ -180,13 +180,21 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
     let machine = load_machine_or_default(a.machine.as_deref())?;
-    let opts = a.plan_options();
+    let mut opts = a.plan_options();
     // Stages 1 and 2 need only the toolpath: they run while the scene is
     // built, and the GPU opens meanwhile.
     let opening = a.backend.open();
-    let (job, prepared) = a.scene.load_beside(&machine, |toolpath| {
+    // A program's sections are as far apart as its travels.
+    let (job, prepared) = a.scene.load_beside(&machine, |toolpath, jump| {
+        let opts = PlanOptions {
+            jump: jump.unwrap_or(opts.jump),
+            ..opts
+        };
         Prepared::new(toolpath, &machine, &opts)
     })?;
+    if let Some(jump) = job.jump {
+        opts.jump = jump;
+    }
     let backend = a
         .backend
         .build_with(opening, &job.scene, !a.quiet, Default::default())?;

@@ -3,11 +3,12 @@
 //! would run it; the wiring of [`maamplan::simulate`]'s stages.
 
 use super::progress::Reporter;
-use super::{check_output, machine_and_margin, BackendKind, SceneArgs, UsageError};
+use super::{check_output, machine_and_margin, BackendKind, SceneArgs};
 use anyhow::{Context, Result};
 use clap::Args;
 use maamplan::default_job::default_head;
-use maamplan::io::gcode_read::load_program;
+use maamplan::geometry::Mesh;
+use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
 use maamplan::job::scene_config;
@@ -18,8 +19,8 @@ use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::moves_csv::write_moves_csv;
 use maamplan::report::part_line;
 use maamplan::report::plots::simulation_figures;
-use maamplan::scene::{BeadSettings, PartModel, Scene};
-use maamplan::simulate::{self, ProblemKind, Simulation};
+use maamplan::scene::{BeadSettings, Scene};
+use maamplan::simulate::{self, ProblemKind, Simulation, Timeline};
 use maamplan::toolpath::Toolpath;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -28,7 +29,8 @@ use std::time::Instant;
 /// Arguments of `simulate`.
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
-    /// The program (G-code) to simulate.
+    /// The program (G-code) to simulate: against the TOOLPATH's layers
+    /// when given, else against the beads the program lays itself.
     gcode: PathBuf,
     #[command(flatten)]
     scene: SceneArgs,
@@ -59,34 +61,49 @@ pub struct SimulateArgs {
     verbose: bool,
 }
 
-/// The toolpath and scene: the job's, or (no TOOLPATH) the platform alone.
-fn load_scene(a: &SimulateArgs, machine: &Machine) -> Result<(String, Toolpath, Scene)> {
+/// The toolpath, scene and timeline: the job's (the program printing its
+/// layer surfaces in its own order), or without a TOOLPATH the beads the
+/// program lays itself.
+fn load_scene(
+    a: &SimulateArgs,
+    machine: &Machine,
+    program: &Program,
+) -> Result<(String, Toolpath, Scene, Timeline)> {
     if a.scene.toolpath.is_some() {
         let job = a.scene.load(machine)?;
-        return Ok((job.source, job.toolpath, job.scene));
+        let mut scene = job.scene;
+        let timeline = simulate::timeline(machine, &job.toolpath, &program.moves);
+        scene.restamp(|s| timeline.stamp(s));
+        return Ok((job.source, job.toolpath, scene, timeline));
     }
-    let Some(platform) = &a.scene.platform else {
-        return Err(UsageError(
-            "simulate without a TOOLPATH checks the program against the platform only: give --platform (and --head), or the toolpath it prints".into(),
-        )
-        .into());
-    };
     let head = match &a.scene.head {
         Some(p) => load_mesh(p)?,
         None => default_head(),
     };
-    let tp = Toolpath::default();
-    let scene = Scene::build(
-        &tp,
+    let settings = BeadSettings::of_machine(machine);
+    let own = |platform: &Mesh| simulate::own_part(program, machine, platform, &settings);
+    let (platform, part) = match &a.scene.platform {
+        Some(p) => {
+            let platform = load_mesh(p)?;
+            let part = own(&platform);
+            (platform, part)
+        }
+        // A plate under the part: its toolpath says where that is.
+        None => {
+            let platform = simulate::platform_under(program, machine);
+            let part = own(&platform);
+            (platform, part)
+        }
+    };
+    let scene = Scene::build_deposited(
+        &part.toolpath,
         &head,
-        &load_mesh(platform)?,
-        &scene_config(
-            a.scene.clearance,
-            PartModel::Auto,
-            BeadSettings::of_machine(machine),
-        ),
+        &platform,
+        &scene_config(a.scene.clearance, a.scene.part.model(), settings),
+        Some(part.groups),
     )?;
-    Ok(("platform only".into(), tp, scene))
+    let source = format!("the part it deposits ({})", scene.part.name());
+    Ok((source, part.toolpath, scene, part.timeline))
 }
 
 /// Run `simulate`.
@@ -96,17 +113,16 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     if let Some(out) = &a.out {
         check_output(out)?;
     }
-    let moves = load_program(&a.gcode, &machine)?;
+    let program = load_program(&a.gcode, &machine)?;
+    let moves = &program.moves;
     let show = Reporter::new(a.quiet, a.verbose);
     show.begin("loading");
-    let (source, toolpath, mut scene) = load_scene(&a, &machine)?;
+    let (source, toolpath, scene, timeline) = load_scene(&a, &machine, &program)?;
     show.stage_line("load", t0.elapsed().as_secs_f64(), None);
     show.note(&scene.head_cache.to_string());
-
-    let t1 = Instant::now();
-    let timeline = simulate::timeline(&machine, &toolpath, &moves);
-    scene.restamp(|s| timeline.stamp(s));
-    show.stage_line("timeline", t1.elapsed().as_secs_f64(), None);
+    if let Some(w) = scene.part.warning() {
+        eprintln!("warning: {w}");
+    }
 
     show.begin("checking");
     let t2 = Instant::now();
@@ -118,7 +134,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         head_reach(&scene),
         margin,
         PlanOptions::default().edge_step,
-        &moves,
+        moves,
         &timeline.cutoffs,
         Some(&tick),
     )?;
@@ -128,7 +144,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
 
     let t3 = Instant::now();
-    let sim = simulate::report(&machine, &moves, &timeline, &collides, queries, margin);
+    let sim = simulate::report(&machine, moves, &timeline, &collides, queries, margin);
     show.stage_line("measure", t3.elapsed().as_secs_f64(), None);
 
     let written = match &a.out {

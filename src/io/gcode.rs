@@ -74,6 +74,11 @@ struct Writer<'a> {
     out: String,
     tilt: char,
     c: char,
+    /// The extruder's letter.
+    e_letter: char,
+    /// `G54`'s origin in the machine's frame: written X Y Z are relative
+    /// to it.
+    work: [f64; 3],
     feed: Option<String>,
     /// The mm/s whose text `feed` is: the same speed needs no new text.
     feed_of: Option<f64>,
@@ -95,11 +100,14 @@ impl Writer<'_> {
     /// `out`: a program has hundreds of thousands of lines, and a string per
     /// word would cost more than formatting the numbers.
     fn push_axes(&mut self, a: &Axes, offset: [f64; 2], tip: bool) {
-        let xyz = if tip {
+        let mut xyz = if tip {
             self.m.tip(a)
         } else {
             [a.xyz[0] - offset[0], a.xyz[1] - offset[1], a.xyz[2]]
         };
+        for (v, o) in xyz.iter_mut().zip(self.work) {
+            *v -= o;
+        }
         let out = &mut self.out;
         for (letter, v) in ['X', 'Y', 'Z'].into_iter().zip(xyz) {
             if letter != 'X' {
@@ -147,7 +155,7 @@ impl Writer<'_> {
             ExtrusionMode::Relative => e - self.e,
         };
         self.e = e;
-        self.out.push('E');
+        self.out.push(self.e_letter);
         push_f3(&mut self.out, w);
     }
 
@@ -182,7 +190,7 @@ impl Writer<'_> {
                     && mv.to.c == from.c =>
             {
                 self.out.push_str("G0 Z");
-                push_f3(&mut self.out, mv.to.xyz[2]);
+                push_f3(&mut self.out, mv.to.xyz[2] - self.work[2]);
             }
             MoveKind::Lift | MoveKind::Lower | MoveKind::Travel => {
                 self.out.push_str("G0 ");
@@ -203,15 +211,15 @@ impl Writer<'_> {
     }
 
     fn header(&mut self, header: &GcodeHeader) {
-        let (m, post, t, c) = (self.m, self.post, self.tilt, self.c);
+        let (m, post, t, c, e) = (self.m, self.post, self.tilt, self.c, self.e_letter);
         let what = match post.dialect {
-            Dialect::Joint => format!("joint-space G-code: G1 X Y Z {t} {c} E (machine axes, mm, degrees)"),
-            Dialect::G43_4 => format!("tool-centre-point G-code (G43.4): G1 X Y Z {t} {c} E (tip in the part frame, mm, degrees)"),
-            Dialect::Traori => format!("tool-centre-point G-code (TRAORI): G1 X Y Z {t} {c} E (tip in the part frame, mm, degrees)"),
+            Dialect::Joint => format!("joint-space G-code: G1 X Y Z {t} {c} {e} (machine axes, mm, degrees)"),
+            Dialect::G43_4 => format!("tool-centre-point G-code (G43.4): G1 X Y Z {t} {c} {e} (tip in the part frame, mm, degrees)"),
+            Dialect::Traori => format!("tool-centre-point G-code (TRAORI): G1 X Y Z {t} {c} {e} (tip in the part frame, mm, degrees)"),
         };
         let e = match post.extrusion {
-            ExtrusionMode::Absolute => "absolute E reset per layer",
-            ExtrusionMode::Relative => "relative E",
+            ExtrusionMode::Absolute => format!("absolute {e} reset per layer"),
+            ExtrusionMode::Relative => format!("relative {e}"),
         };
         let f = match post.feed {
             FeedMode::G94 => "feed in mm/min",
@@ -255,6 +263,8 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
         out: String::with_capacity(prog.steps.len() * 56 + 1024),
         tilt: post.tilt_letter(m.rotary),
         c: post.c_letter(),
+        e_letter: post.extruder_letter(),
+        work: post.work_offset(0),
         feed: None,
         feed_of: None,
         e: 0.0,
@@ -273,7 +283,10 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
     let home = prog.home;
     w.feed_word(m.travel.speed, true, || 0.0);
     w.out.push_str("G28 ");
+    // Homing names machine coordinates, whatever the work offset.
+    let work = std::mem::take(&mut w.work);
     w.push_axes(&home, [0.0; 2], false);
+    w.work = work;
     w.end_line();
     let tool = prog.first_tool.map_or(m.extrusion.tool, |t| t.tool);
     if let Some(t) = prog.first_tool {
@@ -309,7 +322,7 @@ pub fn write_gcode(m: &Machine, prog: &Program, header: &GcodeHeader) -> String 
                         TravelItem::ResetE => {
                             w.e = 0.0;
                             if !relative {
-                                let _ = writeln!(w.out, "G92 E0");
+                                let _ = writeln!(w.out, "G92 {}0", w.e_letter);
                             }
                         }
                     }

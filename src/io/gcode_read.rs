@@ -1,20 +1,30 @@
 //! Reading a 5-axis program back as the motion a controller makes: ours in
-//! any dialect of [`crate::kinematics::Post`], or anyone's in the same
-//! vocabulary (the data set's reference G-code is the joint dialect).
+//! any dialect of [`crate::kinematics::Post`], or anyone's in the
+//! vocabulary real machines use (the data set's reference G-code is the
+//! joint dialect; CNC programs bring `G21 G40 G49 G80`, `T1 M6`, `G54`).
 //!
 //! The reader keeps the controller's state line by line: machine axes,
-//! extruder position (`M82`/`M83`, `G92 E`), feed and feed mode
-//! (`G94`/`G93`), tool (`T<n>`: the support tool's nozzle offset is added
-//! back to joint-dialect X/Y), and tool-centre-point control (`G43.4`/`G49`,
-//! `TRAORI`/`TRAFOOF`: X Y Z are then the tip in the part frame, turned
-//! into machine axes by inverse kinematics). Rotary axes are read with the
-//! machine file's letters and signs. Anything it cannot be sure of is an
-//! error naming the line: an unknown word or code, a value that is not a
-//! finite number, a move before every axis has a position (home with
-//! `G28 X… Y… Z… B… C…` or give every axis on the first move).
+//! extruder position (`M82`/`M83`, `G92 E`; the extruder's letter from
+//! the machine file), feed and feed mode (`G94`/`G93`, lines that set only
+//! `F`), the motion mode (`G0`/`G1`, modal: a line of axis words alone
+//! moves as the last one did), tool (`T<n>`, with or without `M6`: the
+//! support tool's nozzle offset is added back to joint-dialect X/Y), work
+//! coordinate system (`G54`–`G59`, offsets from the machine file; `G53`
+//! for one line), dwells (`G4 P`/`S`: their time is part of the program's)
+//! and tool-centre-point control (`G43.4`/`G49`, `TRAORI`/`TRAFOOF`: X Y
+//! Z are then the tip in the part frame, turned into machine axes by
+//! inverse kinematics). Rotary axes are read with the machine file's
+//! letters and signs. Lengths after `G20` (X Y Z, the extruder, `G94`
+//! feeds) are inches, converted to millimetres until `G21`. Codes that
+//! change nothing the motion depends on (`G17 G40 G80 G90`, spindle,
+//! coolant, temperatures, fans) are taken as they are. Anything it cannot
+//! be sure of is an error naming the line: an unknown word or code, a value
+//! that is not a finite number, a move before every axis has a position
+//! (home with `G28 X… Y… Z… B… C…` or give every axis on the first move).
 
+use super::gcode_words::{line_words, LineWords};
 use super::InputError;
-use crate::kinematics::{linear_axes, tip_position, Axes, Machine};
+use crate::kinematics::{linear_axes, tip_position, Axes, DwellUnit, Machine};
 use std::path::Path;
 
 /// A line the reader cannot take.
@@ -27,7 +37,8 @@ pub struct GcodeError {
     pub msg: String,
 }
 
-/// One motion line of a program, as a controller executes it.
+/// One motion line of a program, as a controller executes it (or a
+/// dwell: no motion, [`GcodeMove::dwell`] seconds).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GcodeMove {
     /// 1-based line number.
@@ -52,6 +63,8 @@ pub struct GcodeMove {
     pub tcp: bool,
     /// Active tool number (0 before any `T`).
     pub tool: u32,
+    /// Seconds the machine waits on this line (`G4`; 0 for motion).
+    pub dwell: f64,
 }
 
 impl GcodeMove {
@@ -76,74 +89,127 @@ pub fn axes_of(v: &[f64; 5]) -> Axes {
     }
 }
 
-/// `T<n>`: the tool it selects.
-fn tool_change(code: &str) -> Option<u32> {
-    code.strip_prefix('T')?.parse().ok()
+/// A program as read: its motion and where its layers begin.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Program {
+    /// Every line that moves an axis or the extruder, or dwells, in order.
+    pub moves: Vec<GcodeMove>,
+    /// 1-based lines of the comments that mark a layer change
+    /// (`;LAYER:3`, `;LAYER_CHANGE`, `; layer 3`), in order.
+    pub layer_marks: Vec<usize>,
 }
 
-/// Codes whose effect the reader follows.
-fn followed(code: &str) -> bool {
-    matches!(
-        code,
-        "M82"
-            | "M83"
-            | "G93"
-            | "G94"
-            | "G43.4"
-            | "TRAORI"
-            | "G49"
-            | "TRAFOOF"
-            | "G92"
-            | "G28"
-            | "G0"
-            | "G1"
-            | "G00"
-            | "G01"
-    ) || tool_change(code).is_some()
+/// What a code does to the controller.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Code {
+    /// `G0` (false) or `G1` (true): a motion, and the motion mode.
+    Motion(bool),
+    /// `G28`: homing, in machine coordinates.
+    Home,
+    /// `G92`: the extruder's position set.
+    SetPosition,
+    /// `G4`: a dwell.
+    Dwell,
+    /// `G93` (true) or `G94`: the feed mode.
+    InverseTime(bool),
+    /// `G43.4` / `TRAORI` (true), `G49` / `TRAFOOF`: tool-centre-point
+    /// control.
+    Tcp(bool),
+    /// `G54`…`G59`: the work coordinate system.
+    Work(usize),
+    /// `G53`: this line's words are machine coordinates.
+    MachineCoordinates,
+    /// `M83` (true) or `M82`: relative extruder coordinates.
+    RelativeE(bool),
+    /// `M6`: the tool `T` selects is changed to.
+    ToolChange,
+    /// `G20` (true: inches) or `G21` (millimetres).
+    Inches(bool),
+    /// A code that changes nothing the motion depends on.
+    Inert,
 }
 
-/// Codes that do not move the machine and are taken as they are.
-fn harmless(code: &str) -> bool {
-    matches!(
-        code,
-        "G4" | "G04" | "G17" | "G21" | "G90" | "G40" | "G80" | "G53" | "G54" | "G64" | "G61"
-    ) || code.starts_with('M')
+/// The code's meaning, or why it is refused.
+fn code(c: &str) -> Result<Code, String> {
+    Ok(match c {
+        "G0" => Code::Motion(false),
+        "G1" => Code::Motion(true),
+        "G28" => Code::Home,
+        "G92" => Code::SetPosition,
+        "G4" => Code::Dwell,
+        "G93" => Code::InverseTime(true),
+        "G94" => Code::InverseTime(false),
+        "G43.4" | "TRAORI" => Code::Tcp(true),
+        "G49" | "TRAFOOF" => Code::Tcp(false),
+        "G53" => Code::MachineCoordinates,
+        "M82" => Code::RelativeE(false),
+        "M83" => Code::RelativeE(true),
+        "M6" => Code::ToolChange,
+        // Plane, millimetres, cutter and canned-cycle cancels, absolute
+        // distances, path blending; program stops and ends; spindle (an
+        // extruder motor on a converted machine), coolant, motors off;
+        // temperatures and fans.
+        "G17" | "G40" | "G80" | "G90" | "G61" | "G64" | "M0" | "M1" | "M2" | "M30" | "M3"
+        | "M4" | "M5" | "M7" | "M8" | "M9" | "M84" | "M104" | "M109" | "M140" | "M190" | "M106"
+        | "M107" => Code::Inert,
+        "G20" => Code::Inches(true),
+        "G21" => Code::Inches(false),
+        c => match c.strip_prefix('G').and_then(|n| n.parse::<usize>().ok()) {
+            Some(n @ 54..=59) => Code::Work(n - 54),
+            _ => return Err(format!("unsupported code {c}")),
+        },
+    })
 }
 
-/// The motion lines of the program in the file at `path` ([`read_program`]),
+/// What [`code`]'s refusal adds: the vocabulary read.
+const VOCABULARY: &str = "maamplan reads G0/G1 (G90, absolute), G4 P/S, G17, G20/G21, G28, G40, G43.4/G49, G53, G54-G59, G80, G92 E, G93/G94, TRAORI/TRAFOOF, T<n> and M6, M3/M5, M82/M83, M104/M109, M140/M190, M106/M107, M0-M2, M30 (README, G-code vocabulary)";
+
+/// The motion lines of the program in the file at `path` ([`parse_program`]),
 /// every problem an [`InputError`] naming the file: unreadable, a line the
 /// reader cannot take, or no motion at all.
-pub fn load_program(path: &Path, m: &Machine) -> Result<Vec<GcodeMove>, InputError> {
+pub fn load_program(path: &Path, m: &Machine) -> Result<Program, InputError> {
     let text = std::fs::read_to_string(path).map_err(|e| {
         InputError::file(
             path,
             format!("cannot read the program ({e}): check the path"),
         )
     })?;
-    let moves = read_program(&text, m).map_err(|e| InputError::at(path, e.line, e.msg))?;
-    if moves.is_empty() {
+    let program = parse_program(&text, m).map_err(|e| InputError::at(path, e.line, e.msg))?;
+    if !program.moves.iter().any(|mv| mv.moves_axes()) {
         return Err(InputError::file(
             path,
             "no G0/G1 motion found: is this a G-code program?",
         ));
     }
-    Ok(moves)
+    Ok(program)
 }
 
-/// Every motion line of `text` for machine `m` (dialect letters, signs and
-/// kinematics from `m`; tool-centre-point control and modes as the program
-/// switches them). Lines that neither move an axis nor the extruder are
-/// left out.
+/// Every motion line of `text` for machine `m` ([`parse_program`]).
 pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeError> {
+    Ok(parse_program(text, m)?.moves)
+}
+
+/// The program `text` for machine `m` (dialect letters, signs, work
+/// offsets and kinematics from `m`; tool-centre-point control and modes
+/// as the program switches them): every line that moves an axis or the
+/// extruder, or dwells, and the layer-change comments.
+pub fn parse_program(text: &str, m: &Machine) -> Result<Program, GcodeError> {
     let mut controller = Controller::new(m);
-    let mut out = Vec::new();
+    let mut out = Program::default();
     for (n, raw) in text.lines().enumerate() {
         let line = n + 1;
+        let words = line_words(raw).map_err(|msg| GcodeError { line, msg })?;
+        if words.layer_change {
+            out.layer_marks.push(line);
+        }
+        if words.is_empty() {
+            continue;
+        }
         if let Some(mv) = controller
-            .read_line(line, raw)
+            .read_line(line, raw, &words)
             .map_err(|msg| GcodeError { line, msg })?
         {
-            out.push(mv);
+            out.moves.push(mv);
         }
     }
     Ok(out)
@@ -152,12 +218,49 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
 /// A line's words by slot: X Y Z tilt C E F.
 type Slots = [Option<f64>; 7];
 
+/// A line's codes, sorted out.
+#[derive(Default)]
+struct LineCodes {
+    /// The one code that takes the line's axis words (motion, homing,
+    /// `G92`, dwell), if any.
+    consumer: Option<(Code, String)>,
+    /// The others, in order.
+    modes: Vec<Code>,
+    /// Another `M` code than `M6`: a `T` word is its parameter (`M104 S205
+    /// T1` heats tool 1), not a tool change.
+    other_m: bool,
+}
+
+impl LineCodes {
+    fn of(words: &LineWords) -> Result<LineCodes, String> {
+        let mut out = LineCodes::default();
+        for c in &words.codes {
+            let k = code(c)?;
+            out.other_m |= c.starts_with('M') && k != Code::ToolChange;
+            match k {
+                Code::Motion(_) | Code::Home | Code::SetPosition | Code::Dwell => {
+                    if let Some((_, first)) = &out.consumer {
+                        return Err(format!(
+                            "{first} and {c} on one line: put each on a line of its own"
+                        ));
+                    }
+                    out.consumer = Some((k, c.clone()));
+                }
+                k => out.modes.push(k),
+            }
+        }
+        Ok(out)
+    }
+}
+
 /// The controller's state while it reads a program.
 struct Controller<'a> {
     m: &'a Machine,
-    /// The tilt axis' and C's letters in this machine's dialect.
+    /// The tilt axis', C's and the extruder's letters in this machine's
+    /// dialect.
     tilt_letter: char,
     c_letter: char,
+    e_letter: char,
     /// Machine axes; `None` until known.
     axes: [Option<f64>; 5],
     e: f64,
@@ -166,6 +269,12 @@ struct Controller<'a> {
     inverse_time: bool,
     tcp: bool,
     tool: u32,
+    /// The motion mode (`G1`: true), once a motion code was given.
+    motion: Option<bool>,
+    /// The work coordinate system (0: `G54`).
+    work: usize,
+    /// Millimetres per unit of length the program writes (25.4 after `G20`).
+    unit: f64,
 }
 
 impl<'a> Controller<'a> {
@@ -174,6 +283,7 @@ impl<'a> Controller<'a> {
             m,
             tilt_letter: m.post.tilt_letter(m.rotary),
             c_letter: m.post.c_letter(),
+            e_letter: m.post.extruder_letter(),
             axes: [None; 5],
             e: 0.0,
             f: 1500.0,
@@ -181,56 +291,81 @@ impl<'a> Controller<'a> {
             inverse_time: false,
             tcp: false,
             tool: 0,
+            motion: None,
+            work: 0,
+            unit: 1.0,
         }
     }
 
-    /// Line number `line` (text `raw`): the state it changes, and the
-    /// motion it makes, if any.
-    fn read_line(&mut self, line: usize, raw: &str) -> Result<Option<GcodeMove>, String> {
-        let Some((code, words)) = tokens(raw)? else {
-            return Ok(None);
-        };
-        if !(followed(&code) || harmless(&code)) {
-            return Err(format!(
-                "unsupported code {code} in `{}`: the simulator follows G0/G1 moves (G90, absolute), G28, G92 E, G93/G94, G43.4/G49, TRAORI/TRAFOOF, M82/M83 and T<n>",
-                raw.trim()
-            ));
+    /// Line number `line` (text `raw`, words `words`): the state it
+    /// changes, and the motion it makes, if any.
+    fn read_line(
+        &mut self,
+        line: usize,
+        raw: &str,
+        words: &LineWords,
+    ) -> Result<Option<GcodeMove>, String> {
+        let codes =
+            LineCodes::of(words).map_err(|e| format!("{e} in `{}`: {VOCABULARY}", raw.trim()))?;
+        let mut machine_coordinates = false;
+        for k in &codes.modes {
+            match *k {
+                Code::InverseTime(on) => self.inverse_time = on,
+                Code::Tcp(on) => self.tcp = on,
+                Code::Work(w) => self.work = w,
+                Code::MachineCoordinates => machine_coordinates = true,
+                Code::RelativeE(on) => self.relative_e = on,
+                Code::Inches(on) => self.unit = if on { 25.4 } else { 1.0 },
+                _ => {}
+            }
         }
-        let vals = self.slots(&words, raw)?;
-        match code.as_str() {
-            "M82" => self.relative_e = false,
-            "M83" => self.relative_e = true,
-            "G93" => self.inverse_time = true,
-            "G94" => self.inverse_time = false,
-            "G43.4" | "TRAORI" => self.tcp = true,
-            "G49" | "TRAFOOF" => self.tcp = false,
-            "G92" => {
-                if vals[..5].iter().any(|v| v.is_some()) {
-                    return Err(
-                        "G92 on a motion axis shifts the coordinates, which the simulator does not follow: use G92 E only".into(),
-                    );
-                }
-                if let Some(x) = vals[5] {
-                    self.e = x;
-                }
+        let (vals, params) = self.slots(&words.values, raw)?;
+        if let (Some(t), false) = (params.tool, codes.other_m) {
+            self.tool = t;
+        }
+        if let Some(x) = vals[6] {
+            if x <= 0.0 {
+                return Err(format!("feed F{x} must be positive"));
             }
-            "G28" => self.home(&vals),
-            "G0" | "G1" | "G00" | "G01" => return self.motion(line, &code, &vals),
-            // The rest was checked above: tool changes, and codes that do
-            // not move the machine.
-            c => {
-                if let Some(t) = tool_change(c) {
-                    self.tool = t;
+            self.f = x;
+        }
+        let moves_words = vals[..6].iter().any(|v| v.is_some());
+        let consumer = match &codes.consumer {
+            Some((k, c)) => Some((*k, c.as_str())),
+            None if moves_words => match self.motion {
+                Some(linear) => Some((Code::Motion(linear), if linear { "G1" } else { "G0" })),
+                None => {
+                    return Err(format!(
+                        "axis words without G0 or G1 in `{}`: give the motion code",
+                        raw.trim()
+                    ))
                 }
+            },
+            None => None,
+        };
+        match consumer {
+            Some((Code::Home, _)) => self.home(&vals),
+            Some((Code::SetPosition, _)) => self.set_position(&vals)?,
+            Some((Code::Dwell, _)) => return self.dwell(line, &vals, &params, raw).map(Some),
+            Some((Code::Motion(linear), c)) => {
+                self.motion = Some(linear);
+                let offset = if machine_coordinates {
+                    [0.0; 3]
+                } else {
+                    self.m.post.work_offset(self.work)
+                };
+                return self.motion(line, c, linear, &vals, offset);
             }
+            _ => {}
         }
         Ok(None)
     }
 
-    /// The words of a line (text `raw`) in their slots.
-    fn slots(&self, words: &[(char, f64)], raw: &str) -> Result<Slots, String> {
-        let (tl, cl) = (self.tilt_letter, self.c_letter);
+    /// The words of a line (text `raw`) in their slots, and its parameters.
+    fn slots(&self, words: &[(char, f64)], raw: &str) -> Result<(Slots, Params), String> {
+        let (tl, cl, el) = (self.tilt_letter, self.c_letter, self.e_letter);
         let mut vals: Slots = [None; 7];
+        let mut params = Params::default();
         for &(k, x) in words {
             let slot = match k {
                 'X' => 0,
@@ -238,19 +373,36 @@ impl<'a> Controller<'a> {
                 'Z' => 2,
                 c if c == tl => 3,
                 c if c == cl => 4,
-                'E' => 5,
+                c if c == el => 5,
                 'F' => 6,
-                'S' | 'P' | 'H' | 'T' | 'D' => continue,
+                'P' => {
+                    params.p = Some(x);
+                    continue;
+                }
+                'S' => {
+                    params.s = Some(x);
+                    continue;
+                }
+                'T' => {
+                    params.tool = (x >= 0.0 && x.fract() == 0.0 && x < 1e9).then_some(x as u32);
+                    if params.tool.is_none() {
+                        return Err(format!("T{x} in `{}` is not a tool number", raw.trim()));
+                    }
+                    continue;
+                }
+                'H' | 'D' | 'R' => continue,
                 c => {
                     return Err(format!(
-                        "unknown word '{c}' in `{}`: this machine's axes are X Y Z {tl} {cl} (set post.tilt_letter / post.c_letter in the machine file)",
+                        "unknown word '{c}' in `{}`: this machine's axes are X Y Z {tl} {cl} and its extruder {el} (set post.tilt_letter / post.c_letter / post.extruder_letter in the machine file)",
                         raw.trim()
                     ))
                 }
             };
-            vals[slot] = Some(x);
+            // Lengths in the program's unit; an inverse-time F is none.
+            let length = matches!(slot, 0..=2 | 5) || (slot == 6 && !self.inverse_time);
+            vals[slot] = Some(if length { x * self.unit } else { x });
         }
-        Ok(vals)
+        Ok((vals, params))
     }
 
     /// `G28`: homing sets the axes it names, in machine coordinates in
@@ -265,20 +417,71 @@ impl<'a> Controller<'a> {
         }
     }
 
-    /// `G0`/`G1` (`code`) on line `line`: the motion, unless the line
-    /// changes nothing.
+    /// `G92`: only the extruder's position may be set.
+    fn set_position(&mut self, vals: &Slots) -> Result<(), String> {
+        if vals[..5].iter().any(|v| v.is_some()) {
+            return Err(format!(
+                "G92 on a motion axis shifts the coordinates, which the simulator does not follow: use G92 {} only",
+                self.e_letter
+            ));
+        }
+        if let Some(x) = vals[5] {
+            self.e = x;
+        }
+        Ok(())
+    }
+
+    /// `G4` on line `line`: a wait of `P` (the machine file's unit) or `S`
+    /// seconds, where the machine stands.
+    fn dwell(
+        &self,
+        line: usize,
+        vals: &Slots,
+        params: &Params,
+        raw: &str,
+    ) -> Result<GcodeMove, String> {
+        let seconds = match (params.p, params.s) {
+            _ if vals[..6].iter().any(|v| v.is_some()) => None,
+            (Some(p), None) => Some(match self.m.post.dwell_unit() {
+                DwellUnit::Milliseconds => p / 1000.0,
+                DwellUnit::Seconds => p,
+            }),
+            (None, Some(s)) => Some(s),
+            _ => None,
+        };
+        let Some(seconds) = seconds.filter(|s| *s >= 0.0) else {
+            return Err(format!(
+                "`{}`: a dwell takes its time as G4 P (in post.dwell_p units, ms by default) or G4 S (seconds), ≥ 0",
+                raw.trim()
+            ));
+        };
+        let at = known(&self.axes).unwrap_or([0.0; 5]);
+        Ok(GcodeMove {
+            line,
+            linear: false,
+            from: at,
+            to: at,
+            e: self.e,
+            de: 0.0,
+            f: self.f,
+            inverse_time: self.inverse_time,
+            tcp: self.tcp,
+            tool: self.tool,
+            dwell: seconds,
+        })
+    }
+
+    /// `G0`/`G1` (`code`, `linear`) on line `line`, X Y Z words in the
+    /// work coordinate system whose origin is `offset`: the motion, unless
+    /// the line changes nothing.
     fn motion(
         &mut self,
         line: usize,
         code: &str,
+        linear: bool,
         vals: &Slots,
+        offset: [f64; 3],
     ) -> Result<Option<GcodeMove>, String> {
-        if let Some(x) = vals[6] {
-            if x <= 0.0 {
-                return Err(format!("feed F{x} must be positive"));
-            }
-            self.f = x;
-        }
         let moves_axis = vals[..5].iter().any(|v| v.is_some());
         let de = match vals[5] {
             Some(x) if self.relative_e => x,
@@ -291,7 +494,7 @@ impl<'a> Controller<'a> {
         }
         // Every axis given on the first move: the machine starts there.
         let to = if moves_axis {
-            Some(self.target(vals, from))
+            Some(self.target(vals, from, offset))
         } else {
             from
         };
@@ -303,7 +506,7 @@ impl<'a> Controller<'a> {
         Ok(match (from, to) {
             (Some(from), Some(to)) if to != from || de != 0.0 => Some(GcodeMove {
                 line,
-                linear: code.ends_with('1'),
+                linear,
                 from,
                 to,
                 e: self.e,
@@ -312,6 +515,7 @@ impl<'a> Controller<'a> {
                 inverse_time: self.inverse_time,
                 tcp: self.tcp,
                 tool: self.tool,
+                dwell: 0.0,
             }),
             _ => None,
         })
@@ -335,8 +539,9 @@ impl<'a> Controller<'a> {
     }
 
     /// The machine axes after a motion line with words `vals`, from
-    /// `from` (`None`: every axis is given).
-    fn target(&self, vals: &Slots, from: Option<[f64; 5]>) -> [f64; 5] {
+    /// `from` (`None`: every axis is given), X Y Z words relative to
+    /// `offset`.
+    fn target(&self, vals: &Slots, from: Option<[f64; 5]>, offset: [f64; 3]) -> [f64; 5] {
         let m = self.m;
         let post = &m.post;
         let from = from.unwrap_or([0.0; 5]);
@@ -351,20 +556,29 @@ impl<'a> Controller<'a> {
                 from[3].to_radians(),
                 from[4].to_radians(),
             );
-            let p = std::array::from_fn(|k| vals[k].unwrap_or(cur[k]));
+            let p = std::array::from_fn(|k| vals[k].map_or(cur[k], |x| x + offset[k]));
             let xyz = linear_axes(m, p, tr, cr);
             return [xyz[0], xyz[1], xyz[2], tilt, c];
         }
-        let off = if self.tool == m.support.tool && self.tool != m.extrusion.tool {
+        let nozzle = if self.tool == m.support.tool && self.tool != m.extrusion.tool {
             m.support.offset
         } else {
             [0.0; 2]
         };
-        let x = vals[0].map_or(from[0], |x| x + off[0]);
-        let y = vals[1].map_or(from[1], |y| y + off[1]);
-        let z = vals[2].unwrap_or(from[2]);
+        let x = vals[0].map_or(from[0], |x| x + offset[0] + nozzle[0]);
+        let y = vals[1].map_or(from[1], |y| y + offset[1] + nozzle[1]);
+        let z = vals[2].map_or(from[2], |z| z + offset[2]);
         [x, y, z, tilt, c]
     }
+}
+
+/// A line's words that are no axis: `P` and `S` (a dwell's time, a
+/// temperature, a speed) and `T` (a tool).
+#[derive(Clone, Copy, Debug, Default)]
+struct Params {
+    p: Option<f64>,
+    s: Option<f64>,
+    tool: Option<u32>,
 }
 
 fn known(axes: &[Option<f64>; 5]) -> Option<[f64; 5]> {
@@ -373,80 +587,6 @@ fn known(axes: &[Option<f64>; 5]) -> Option<[f64; 5]> {
         v[k] = axes[k]?;
     }
     Some(v)
-}
-
-/// The words of one line, upper-cased: the code (`G1`, `M104`, `T2`,
-/// `TRAORI`) and its `(letter, value)` pairs. Comments (`;…`, `(…)`) and a
-/// leading `N` line number are dropped.
-type Words = (String, Vec<(char, f64)>);
-
-/// A whitespace-separated token as words: `X1.5`, or run together as many
-/// controllers accept them (`G1X1.5Y2`). `None` when a piece is not a
-/// letter followed by a number.
-fn split_words(token: &str) -> Option<Vec<(char, &str)>> {
-    let starts: Vec<usize> = token
-        .char_indices()
-        .filter(|(_, c)| c.is_ascii_alphabetic())
-        .map(|(i, _)| i)
-        .collect();
-    if starts.first() != Some(&0) {
-        return None;
-    }
-    let mut out = Vec::with_capacity(starts.len());
-    for (k, &i) in starts.iter().enumerate() {
-        let end = starts.get(k + 1).copied().unwrap_or(token.len());
-        let num = &token[i + 1..end];
-        if num.is_empty() {
-            return None;
-        }
-        out.push((token.as_bytes()[i].to_ascii_uppercase() as char, num));
-    }
-    Some(out)
-}
-
-/// The words of one line, upper-cased: the code (`G1`, `M104`, `T2`,
-/// `TRAORI`) and its `(letter, value)` pairs. Comments (`;…`, `(…)`) and a
-/// leading `N` line number are dropped.
-fn tokens(raw: &str) -> Result<Option<Words>, String> {
-    let mut s = String::with_capacity(raw.len());
-    let mut depth = 0;
-    for ch in raw.chars() {
-        match ch {
-            ';' if depth == 0 => break,
-            '(' => depth += 1,
-            ')' if depth > 0 => depth -= 1,
-            _ if depth == 0 => s.push(ch),
-            _ => {}
-        }
-    }
-    let trimmed = s.trim().to_ascii_uppercase();
-    if trimmed == "TRAORI" || trimmed == "TRAFOOF" {
-        return Ok(Some((trimmed, Vec::new())));
-    }
-    let mut pieces = Vec::new();
-    for token in s.split_whitespace() {
-        let words = split_words(token)
-            .ok_or_else(|| format!("'{token}' is not a letter and a finite number"))?;
-        pieces.extend(words.into_iter().map(|w| (w, token)));
-    }
-    if pieces.first().is_some_and(|((k, _), _)| *k == 'N') {
-        pieces.remove(0);
-    }
-    let mut pieces = pieces.into_iter();
-    let Some(((k, num), _)) = pieces.next() else {
-        return Ok(None);
-    };
-    let code = format!("{k}{}", num.to_ascii_uppercase());
-    let mut words = Vec::new();
-    for ((k, num), token) in pieces {
-        let x: f64 = num
-            .parse()
-            .ok()
-            .filter(|x: &f64| x.is_finite())
-            .ok_or_else(|| format!("'{token}' is not a letter and a finite number"))?;
-        words.push((k, x));
-    }
-    Ok(Some((code, words)))
 }
 
 /// The machine axes of every `G1 X` line: `[X, Y, Z, tilt°, C°, E]`.
@@ -487,29 +627,4 @@ pub fn rotary_motion(moves: &[GcodeMove]) -> (f64, f64) {
         }
     }
     (total, max_step)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn words_are_read_with_or_without_spaces_and_comments_go() {
-        let w = |s: &str| tokens(s).unwrap();
-        let g1 = Some(("G1".to_string(), vec![('X', 1.5), ('Y', -2.0), ('E', 0.25)]));
-        assert_eq!(w("G1 X1.5 Y-2 E0.25"), g1);
-        assert_eq!(w("g1x1.5y-2e.25 ; comment"), g1);
-        assert_eq!(w("N120 G1 X1.5 (note) Y-2 E0.25"), g1);
-        assert_eq!(w("G43.4 H1"), Some(("G43.4".to_string(), vec![('H', 1.0)])));
-        assert_eq!(w(" TRAORI "), Some(("TRAORI".to_string(), vec![])));
-        assert_eq!(w("; only a comment"), None);
-        // No exponents in G-code: E starts the next word.
-        assert_eq!(
-            w("G1 X1E5"),
-            Some(("G1".to_string(), vec![('X', 1.0), ('E', 5.0)]))
-        );
-        for bad in ["G1 XNaN", "G1 X1e", "G1 X", "G1 *5", "G1 X1..2", "G1 Xinf"] {
-            assert!(tokens(bad).is_err(), "{bad}");
-        }
-    }
 }

@@ -7,6 +7,7 @@
 pub mod fixed;
 pub mod gcode;
 pub mod gcode_read;
+pub mod gcode_words;
 pub mod mesh;
 pub mod number;
 pub mod obj_plain;

@@ -25,7 +25,7 @@ pub mod post;
 pub use machine_file::{
     load_machine, AxisLimits, Extrusion, Machine, MachineError, ToolSettings, Travel,
 };
-pub use post::{Dialect, ExtrusionMode, FeedMode, Interpolation, Post};
+pub use post::{Dialect, DwellUnit, ExtrusionMode, FeedMode, Interpolation, Post};
 
 use crate::geometry::{Pose, V3};
 use glam::{DMat3, DVec3};

@@ -19,10 +19,17 @@
 //! - **Feed**: `g94` (mm/min) or `g93` inverse time (each `G1` line's `F`
 //!   is 1 / its planned duration in minutes: the controller then takes
 //!   exactly that long, which is how a rotary move gets a correct feed).
-//! - **Extruder**: absolute (`M82`) or relative (`M83`) E.
+//! - **Extruder**: absolute (`M82`) or relative (`M83`), and its letter:
+//!   `E` on printers, another axis letter (`A`, `U`, `W`, …) on a CNC
+//!   machine converted to print, whose extruder is driven as an axis.
+//! - **Work offsets** `G54`–`G59`: where each work coordinate system lies
+//!   in the machine's frame (identity unless given), and what `G4 P`
+//!   counts in (milliseconds as printers read it, or seconds as CNC
+//!   controllers do).
 
 use super::Rotary;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 
 /// What the program's words mean and how the controller interpolates them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
@@ -91,6 +98,21 @@ pub enum ExtrusionMode {
     Relative,
 }
 
+/// What `G4 P` counts in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum DwellUnit {
+    /// Milliseconds (Marlin, RepRap: the data set's printer).
+    #[default]
+    #[serde(rename = "ms")]
+    Milliseconds,
+    /// Seconds (LinuxCNC, Fanuc with a decimal point).
+    #[serde(rename = "s")]
+    Seconds,
+}
+
+/// The work coordinate systems a program can select, in order.
+pub const WORK_SYSTEMS: [&str; 6] = ["G54", "G55", "G56", "G57", "G58", "G59"];
+
 /// The machine file's `[post]` section.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -116,6 +138,19 @@ pub struct Post {
     /// Extruder coordinates.
     #[serde(default)]
     pub extrusion: ExtrusionMode,
+    /// Letter of the extruder axis [default: E]; any other letter frees
+    /// `E` of meaning on this machine.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub extruder_letter: Option<char>,
+    /// What `G4 P` counts in [default: ms]; `G4 S` is always seconds.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dwell_p: Option<DwellUnit>,
+    /// `G54`…`G59`: X Y Z of each work coordinate system's origin in the
+    /// machine's frame (mm): a program's X Y Z are read as that origin
+    /// plus the words, and written as the axes minus `G54`'s. Systems not
+    /// given are the machine's frame itself.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub work_offsets: BTreeMap<String, [f64; 3]>,
 }
 
 fn plus() -> f64 {
@@ -138,6 +173,9 @@ impl Default for Post {
             c_sign: 1.0,
             feed: FeedMode::G94,
             extrusion: ExtrusionMode::Absolute,
+            extruder_letter: None,
+            dwell_p: None,
+            work_offsets: BTreeMap::new(),
         }
     }
 }
@@ -154,6 +192,26 @@ impl Post {
     /// The turning axis' letter.
     pub fn c_letter(&self) -> char {
         self.c_letter.unwrap_or('C')
+    }
+
+    /// The extruder axis' letter.
+    pub fn extruder_letter(&self) -> char {
+        self.extruder_letter.unwrap_or('E')
+    }
+
+    /// What `G4 P` counts in.
+    pub fn dwell_unit(&self) -> DwellUnit {
+        self.dwell_p.unwrap_or_default()
+    }
+
+    /// The origin of work coordinate system `k` (0: `G54`, … 5: `G59`)
+    /// in the machine's frame.
+    pub fn work_offset(&self, k: usize) -> [f64; 3] {
+        WORK_SYSTEMS
+            .get(k)
+            .and_then(|name| self.work_offsets.get(*name))
+            .copied()
+            .unwrap_or([0.0; 3])
     }
 
     /// How the controller moves between two lines.
@@ -173,6 +231,29 @@ impl Post {
         }
         if t == c {
             return Err("post.tilt_letter and post.c_letter must differ".into());
+        }
+        let e = self.extruder_letter();
+        if !e.is_ascii_uppercase() || (e != 'E' && TAKEN.contains(e)) {
+            return Err(format!(
+                "post.extruder_letter must be E or an upper-case letter other than {TAKEN} (got '{e}')"
+            ));
+        }
+        if e == t || e == c {
+            return Err(format!(
+                "post.extruder_letter '{e}' is also a rotary axis' letter: give post.tilt_letter / post.c_letter another"
+            ));
+        }
+        for (name, v) in &self.work_offsets {
+            if !WORK_SYSTEMS.contains(&name.as_str()) {
+                return Err(format!(
+                    "post.work_offsets.{name}: the work coordinate systems are G54 to G59"
+                ));
+            }
+            if v.iter().any(|x| !x.is_finite()) {
+                return Err(format!(
+                    "post.work_offsets.{name} must be three finite numbers (mm)"
+                ));
+            }
         }
         for (name, s) in [
             ("post.tilt_sign", self.tilt_sign),

@@ -5,9 +5,9 @@
 //! Per motion line with part-frame chord `L` between its tips: the
 //! duration `t = max(t_feed, |ΔX|/vX, |ΔY|/vY, |ΔZ|/vZ, |Δtilt|/ω_tilt,
 //! |ΔC|/ω_C)` with `t_feed = L / F` under `G94` (0 for `G0`: rapids go as
-//! fast as the axes), `1 / F` minutes under `G93`; the tip speed `L / t`;
-//! the tip's largest distance from the chord as the controller
-//! interpolates (0 under tool-centre-point control); the rotary step
+//! fast as the axes), `1 / F` minutes under `G93`, plus a dwell's wait
+//! (`G4`: a line of its own); the tip speed `L / t`; the tip's largest
+//! distance from the chord as the controller interpolates (0 under tool-centre-point control); the rotary step
 //! `|Δtilt| + |ΔC|`; the filament per millimetre of bead.
 
 use crate::io::gcode_read::{axes_of, GcodeMove};
@@ -71,7 +71,9 @@ pub fn measure(m: &Machine, mv: &GcodeMove) -> MoveReport {
     let (pa, pb) = (m.tip(&a), m.tip(&b));
     let len = (pb[0] - pa[0]).hypot(pb[1] - pa[1]).hypot(pb[2] - pa[2]);
     let d: [f64; 5] = std::array::from_fn(|k| (mv.to[k] - mv.from[k]).abs());
-    let commanded = if mv.inverse_time {
+    let commanded = if !mv.moves_axes() && mv.de == 0.0 {
+        0.0
+    } else if mv.inverse_time {
         60.0 / mv.f
     } else if !mv.moves_axes() {
         mv.de.abs() / (mv.f / 60.0)
@@ -91,6 +93,9 @@ pub fn measure(m: &Machine, mv: &GcodeMove) -> MoveReport {
     .into_iter()
     .fold(0.0, f64::max);
     let extrudes = mv.extrudes();
+    let moving = seconds;
+    // A dwell's wait is the program's time too (a line is one or the other).
+    let seconds = seconds + mv.dwell;
     MoveReport {
         line: mv.line,
         extrudes,
@@ -98,7 +103,7 @@ pub fn measure(m: &Machine, mv: &GcodeMove) -> MoveReport {
         layer: None,
         seconds,
         length_mm: len,
-        tip_speed: if seconds > 0.0 { len / seconds } else { 0.0 },
+        tip_speed: if moving > 0.0 { len / moving } else { 0.0 },
         deviation_mm: if extrudes {
             tip_deviation(m, &a, &b)
         } else {

@@ -6,7 +6,9 @@
 //! 1. [`timeline()`]: read as [`crate::io::gcode_read::read_program`] reads
 //!    it, the program prints the toolpath's layer surfaces in its own
 //!    order; [`Timeline`] says which material exists during each line, and
-//!    [`crate::scene::Scene::restamp`] turns that into a scene.
+//!    [`crate::scene::Scene::restamp`] turns that into a scene. Without a
+//!    toolpath, [`own_part()`]: the beads the program lays itself, in its
+//!    order, are the part.
 //! 2. [`check_moves`]: every line that moves is proven free or colliding
 //!    with the evaluator, completely (the planner's
 //!    [`crate::prove::Prover`]: samples close enough for the head's
@@ -17,6 +19,7 @@
 //!    with their G-code lines, plus a summary.
 
 pub mod measure;
+pub mod own_part;
 pub mod timeline;
 
 use crate::collide::{Backend, CollideError};
@@ -26,13 +29,14 @@ use crate::plan::layer_reading::NearestLayer;
 use crate::prove::{MoveSpec, Prover, Ticker};
 use crate::toolpath::Toolpath;
 pub use measure::{MoveReport, Problem, ProblemKind};
+pub use own_part::{own_part, platform_under, OwnPart};
 use serde::Serialize;
 pub use timeline::Timeline;
 
 /// What a simulation found, in numbers.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Summary {
-    /// Lines that move an axis or the extruder.
+    /// Lines that move an axis or the extruder, or dwell.
     pub moves: usize,
     /// Lines that extrude while moving.
     pub extruding_moves: usize,

@@ -26,6 +26,8 @@
 use crate::io::gcode_read::{axes_of, GcodeMove};
 use crate::kinematics::Machine;
 use crate::plan::layer_reading::NearestLayer;
+use crate::program_toolpath::ProgramToolpath;
+use crate::scene::stamp_of;
 use glam::DVec3;
 
 /// Longest run of waypoints one extruding move may print at once.
@@ -121,6 +123,42 @@ impl Timeline {
         }
     }
 
+    /// The timeline of `moves` printing their own toolpath `pt` (read from
+    /// them: [`ProgramToolpath::of`]), whose waypoint `g` lies in layer
+    /// `layer_of[g]`: waypoints are printed in the toolpath's order, which
+    /// is the program's, each bead by the line that ends on it, so the
+    /// stamps need no change.
+    pub fn of_program(pt: &ProgramToolpath, layer_of: &[usize], moves: &[GcodeMove]) -> Self {
+        let n = pt.lines.len();
+        let mut cutoffs = Vec::with_capacity(moves.len());
+        let mut layers = Vec::with_capacity(moves.len());
+        // Waypoints reached so far.
+        let mut reached = 0usize;
+        for (i, mv) in moves.iter().enumerate() {
+            let at = pt.move_waypoint.get(i).copied().flatten();
+            match at {
+                // Laying the bead into g: all but the bead it starts on.
+                Some(g) if mv.extrudes() && pt.printed[g] => cutoffs.push(stamp_of(g - 1)),
+                // Everything printed before the line's end.
+                _ => cutoffs.push(stamp_of(at.unwrap_or(reached))),
+            }
+            if let Some(g) = at {
+                reached = g + 1;
+            }
+            layers.push(reached.checked_sub(1).map(|g| layer_of[g]));
+        }
+        // Before the first waypoint a move reads as the first layer.
+        let first = layer_of.first().copied();
+        for l in layers.iter_mut().take_while(|l| l.is_none()) {
+            *l = first;
+        }
+        Timeline {
+            printed: (0..n as u32).map(Some).collect(),
+            cutoffs,
+            layers,
+        }
+    }
+
     /// The re-stamped stamp of a scene triangle with stamp `s` (its
     /// waypoint's global index + 1): its waypoint's print number + 1, or
     /// never (`u32::MAX`).
@@ -199,6 +237,7 @@ mod tests {
             inverse_time: false,
             tcp: false,
             tool: 1,
+            dwell: 0.0,
         }
     }
 
