@@ -345,7 +345,7 @@ fn a_programs_layer_comments_split_its_toolpath() {
     // Without them the beads say how the layers stack.
     let without = ProgramToolpath::of(&parse_program(&wall_program(false).0, &m).unwrap(), &m);
     assert_eq!(without.toolpath.layers.len(), 1);
-    let platform = maamplan::job::plate_under(&without.toolpath);
+    let platform = maamplan::job::plate_under(&without.toolpath, None);
     let d = without.deposit(&platform, &BeadSettings::of_machine(&m), &m);
     assert_eq!(d.toolpath.layers.len(), 10);
 }
