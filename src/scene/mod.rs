@@ -257,6 +257,64 @@ fn part_groups(
     (groups, source)
 }
 
+/// The scene's contact tolerance: `2·10⁻⁶ ×` the largest coordinate of
+/// the head, the platform, the surfaces and the waypoints within `reach`
+/// (one far out of reach would blunt every test), at least 10⁻⁶ mm.
+fn tolerance(toolpath: &Toolpath, platform: &Mesh, head_extent: f32, reach: Option<f32>) -> f32 {
+    let max_abs = |m: &Mesh| {
+        m.vertices
+            .iter()
+            .flatten()
+            .fold(0.0f32, |a, c| a.max(c.abs()))
+    };
+    let mut scale = head_extent.max(max_abs(platform));
+    for l in &toolpath.layers {
+        if let Some(s) = &l.surface {
+            scale = scale.max(max_abs(s));
+        }
+        for w in &l.waypoints {
+            let [x, y, z] = w.pos;
+            if reach.is_none_or(|r| x.hypot(y).hypot(z) <= r) {
+                scale = scale.max(w.pos.iter().fold(0.0f32, |a, c| a.max(c.abs())));
+            }
+        }
+    }
+    (2e-6 * scale).max(1e-6)
+}
+
+/// Every group's triangles, numbered in group order (their `source`),
+/// written side by side straight into one buffer (a parallel collect of
+/// unknown length went through a list of vectors and copied each again).
+fn triangle_soup(groups: &[PartGroup]) -> Vec<GpuTriangle> {
+    let mut soup = vec![GpuTriangle::default(); groups.iter().map(|g| g.stamps.len()).sum()];
+    let mut rest = soup.as_mut_slice();
+    let mut parts = Vec::with_capacity(groups.len());
+    let mut first = 0;
+    for g in groups {
+        let (part, tail) = std::mem::take(&mut rest).split_at_mut(g.stamps.len());
+        parts.push((part, first));
+        first += g.stamps.len();
+        rest = tail;
+    }
+    parts
+        .into_par_iter()
+        .zip(groups)
+        .for_each(|((part, first), g)| {
+            for (i, t) in part.iter_mut().enumerate() {
+                let [v0, v1, v2] = g.mesh.corners(i);
+                *t = GpuTriangle {
+                    v0,
+                    stamp: g.stamps[i],
+                    v1,
+                    layer: g.layer.map_or(u32::MAX, |l| l as u32),
+                    v2,
+                    source: (first + i) as u32,
+                };
+            }
+        });
+    soup
+}
+
 /// Per layer: is its surface the part's material there (`true`), or its
 /// beads? Surfaces win wherever the toolpath gives one, unless `model`
 /// asks for beads; with [`PartModel::Surfaces`] no layer is beads.
@@ -364,26 +422,7 @@ impl Scene {
         let head_extent = Aabb::from_points(&head_mesh.vertices).extent();
         let max_edge = cfg.max_edge.unwrap_or(head_extent / 8.0).max(1e-3);
 
-        // Scale for the tolerance: the largest coordinate anywhere.
-        let max_abs = |m: &Mesh| {
-            m.vertices
-                .iter()
-                .flatten()
-                .fold(0.0f32, |a, c| a.max(c.abs()))
-        };
-        let mut scale = head_extent.max(max_abs(&platform));
-        for l in &toolpath.layers {
-            if let Some(s) = &l.surface {
-                scale = scale.max(max_abs(s));
-            }
-            for w in &l.waypoints {
-                let [x, y, z] = w.pos;
-                if cfg.reach.is_none_or(|r| x.hypot(y).hypot(z) <= r) {
-                    scale = scale.max(w.pos.iter().fold(0.0f32, |a, c| a.max(c.abs())));
-                }
-            }
-        }
-        let tol = (2e-6 * scale).max(1e-6);
+        let tol = tolerance(toolpath, &platform, head_extent, cfg.reach);
 
         // The head (its distance grids) and the part's layers do not
         // depend on each other: built side by side.
@@ -394,36 +433,7 @@ impl Scene {
         );
         let (head, head_cache) = head?;
 
-        // Every group's triangles, numbered in group order (their
-        // `source`), written side by side straight into one buffer (a
-        // parallel collect of unknown length went through a list of
-        // vectors and copied each again).
-        let mut soup = vec![GpuTriangle::default(); groups.iter().map(|g| g.stamps.len()).sum()];
-        let mut rest = soup.as_mut_slice();
-        let mut parts = Vec::with_capacity(groups.len());
-        let mut first = 0;
-        for g in &groups {
-            let (part, tail) = std::mem::take(&mut rest).split_at_mut(g.stamps.len());
-            parts.push((part, first));
-            first += g.stamps.len();
-            rest = tail;
-        }
-        parts
-            .into_par_iter()
-            .zip(&groups)
-            .for_each(|((part, first), g)| {
-                for (i, t) in part.iter_mut().enumerate() {
-                    let [v0, v1, v2] = g.mesh.corners(i);
-                    *t = GpuTriangle {
-                        v0,
-                        stamp: g.stamps[i],
-                        v1,
-                        layer: g.layer.map_or(u32::MAX, |l| l as u32),
-                        v2,
-                        source: (first + i) as u32,
-                    };
-                }
-            });
+        let soup = triangle_soup(&groups);
         let part = bvh::build(&soup, 4, head_extent * bvh::LAYER_LIFT_PER_HEAD)?;
         drop(soup);
         // (The soup numbers the groups' triangles in group order.)
@@ -439,17 +449,17 @@ impl Scene {
         slab::add_slabs(&part, &mut part_nodes, &walls);
         let part_tris = part.triangles;
 
-        let mut waypoint_queries = Vec::with_capacity(toolpath.waypoint_count());
-        let mut waypoint_layers = Vec::with_capacity(toolpath.waypoint_count());
-        for (g, (k, w)) in toolpath.iter().enumerate() {
-            waypoint_queries.push(Query {
+        let waypoint_queries = toolpath
+            .iter()
+            .enumerate()
+            .map(|(g, (_, w))| Query {
                 pose: Pose::from_axis(w.pos, w.dir),
                 cutoff: cutoff(g),
                 margin: 0.0,
                 slope: 0.0,
-            });
-            waypoint_layers.push(k as u32);
-        }
+            })
+            .collect();
+        let waypoint_layers = toolpath.iter().map(|(k, _)| k as u32).collect();
         Ok(Scene {
             part_nodes,
             part_tris,

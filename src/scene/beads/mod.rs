@@ -367,7 +367,7 @@ const BOX_TRIANGLES: [[u32; 3]; 12] = [
 ];
 
 /// Is triangle `i` of a group of beads one of a bead's walls (sides and
-/// ends, [`BOX_TRIANGLES`] after its top and bottom)?
+/// ends: the eight triangles of a box after its top and bottom)?
 pub fn is_wall(i: usize) -> bool {
     i % BOX_TRIANGLES.len() >= 4
 }
