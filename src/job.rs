@@ -258,15 +258,8 @@ pub fn stacked(
     settings: &BeadSettings,
     flip: bool,
 ) -> (Toolpath, Vec<usize>, Vec<PartGroup>) {
-    let pos = toolpath.positions();
-    let dir = toolpath.directions();
-    let layer: Vec<usize> = toolpath.iter().map(|(k, _)| k).collect();
-    let path = beads::BeadPath {
-        pos: &pos,
-        dir: &dir,
-        layer: &layer,
-    };
-    let stacking = beads::stacked_layers(path, platform, settings);
+    let held = beads::HeldPath::of(toolpath);
+    let stacking = beads::stacked_layers(held.path(), platform, settings);
     let mut out = toolpath.relayered(&stacking.layer_of);
     let mut flipped = Vec::new();
     if flip {

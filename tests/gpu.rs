@@ -53,6 +53,18 @@ fn batches_of(batch: usize) -> GpuOptions {
     }
 }
 
+/// `base` at each margin of [`MARGINS`] and each sloped one of
+/// [`SLOPED`], with what to call each set in messages.
+fn at_every_margin(base: &[Query], what: &str) -> Vec<(Vec<Query>, String)> {
+    let margins = MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED);
+    margins
+        .map(|(margin, slope)| {
+            let queries = with_slope(base, margin, slope);
+            (queries, format!("{what}, margin {margin} + {slope} per mm"))
+        })
+        .collect()
+}
+
 /// GPU and CPU verdicts agree, except near-contacts (the head's surface
 /// within 1e-3 mm of the query's margin; listed).
 fn agree(scene: &Scene, queries: &[Query], gpu: &GpuBackend, what: &str) -> usize {
@@ -92,10 +104,7 @@ fn random_scenes_gpu_matches_cpu_and_brute_force() {
             return;
         };
         let base = random_queries(&mut r, &scene, 500);
-        let margins = MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED);
-        for (margin, slope) in margins {
-            let queries = with_slope(&base, margin, slope);
-            let what = format!("seed {seed}, margin {margin} + {slope} per mm");
+        for (queries, what) in at_every_margin(&base, &format!("seed {seed}")) {
             let (hits, got) = agree_with(&scene, &queries, &g, &what);
             let brute = BruteBackend::new(&scene).evaluate(&queries).unwrap();
             let near = near_contacts_only(
@@ -142,10 +151,7 @@ fn bead_scenes_gpu_matches_cpu() {
             return;
         };
         let base = random_queries(&mut r, &scene, 400);
-        let margins = MARGINS.map(|m| (m, 0.0)).into_iter().chain(SLOPED);
-        for (margin, slope) in margins {
-            let queries = with_slope(&base, margin, slope);
-            let what = format!("beads, seed {seed}, margin {margin} + {slope} per mm");
+        for (queries, what) in at_every_margin(&base, &format!("beads, seed {seed}")) {
             let hits = agree(&scene, &queries, &g, &what);
             assert!(
                 hits > 20 && hits + 20 < queries.len(),

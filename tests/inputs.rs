@@ -122,18 +122,23 @@ fn a_waypoint_folder_without_layer_surfaces() {
     assert_planned_from_beads(&report, &rows, 3);
 }
 
+/// `file` read back as the tiny part's layers named `names` (21
+/// waypoints each), and planned from its beads; the toolpath read.
+fn read_and_plan(file: &Path, names: &[&str]) -> Toolpath {
+    let back = read(file);
+    let want: Vec<(String, usize)> = names.iter().map(|n| (n.to_string(), 21)).collect();
+    assert_eq!(shape(&back), want);
+    let (report, rows, _) = plan(file, &[]);
+    assert_planned_from_beads(&report, &rows, names.len());
+    back
+}
+
 #[test]
 fn a_single_file_with_layers_separated_by_blank_lines() {
     let file = folder("blank").join("part.txt");
     fs::write(&file, text(3, " ", |_| String::new(), "\n")).unwrap();
-    let back = read(&file);
-    assert_eq!(
-        shape(&back),
-        vec![("0".into(), 21), ("1".into(), 21), ("2".into(), 21)]
-    );
+    let back = read_and_plan(&file, &["0", "1", "2"]);
     assert_eq!(back.layers[1].waypoints[0].pos, [5.0, 0.0, 0.5]);
-    let (report, rows, _) = plan(&file, &[]);
-    assert_planned_from_beads(&report, &rows, 3);
 }
 
 #[test]
@@ -141,14 +146,8 @@ fn a_single_file_with_a_layer_column() {
     let file = folder("column").join("part.txt");
     let names = ["10", "11", "11S"];
     fs::write(&file, text(3, ",", |k| format!(",{}", names[k]), "")).unwrap();
-    let back = read(&file);
-    assert_eq!(
-        shape(&back),
-        vec![("10".into(), 21), ("11".into(), 21), ("11S".into(), 21)]
-    );
+    let back = read_and_plan(&file, &names);
     assert!(back.layers[2].is_support());
-    let (report, rows, _) = plan(&file, &[]);
-    assert_planned_from_beads(&report, &rows, 3);
 }
 
 #[test]
@@ -162,12 +161,9 @@ fn a_csv_whose_header_names_the_columns() {
         }
     }
     fs::write(&file, &t).unwrap();
-    let back = read(&file);
-    assert_eq!(shape(&back), vec![("0".into(), 21), ("1".into(), 21)]);
+    let back = read_and_plan(&file, &["0", "1"]);
     assert_eq!(back.layers[1].waypoints[3].pos, line(1)[3][..3]);
     assert_eq!(back.layers[1].waypoints[3].dir, [0.0, 0.0, 1.0]);
-    let (report, rows, _) = plan(&file, &[]);
-    assert_planned_from_beads(&report, &rows, 2);
 }
 
 /// Y-up and `--place` apply to a single file as to a folder.

@@ -235,17 +235,13 @@ fn simulate_without_a_toolpath_checks_a_program_against_its_own_beads() {
     }
 }
 
-/// simple_curve's reference G-code simulated without a toolpath.
-#[test]
-fn on_the_reference_gcode_simulate_alone_finds_the_fcl_audits_collisions() {
+/// `simulate PROGRAM` with the data set's head and platform, no toolpath,
+/// on the cpu, into `out`.
+fn simulate_alone(program: &std::path::Path, out: &std::path::Path) -> std::process::Output {
     let d = common::data();
-    let dir = tempfile::tempdir().unwrap();
-    let out = dir.path().join("out");
-    let o = cli(&[
+    cli(&[
         "simulate",
-        d.join("reference_gcode/simple_curve_Gcode.txt")
-            .to_str()
-            .unwrap(),
+        program.to_str().unwrap(),
         "--head",
         d.join("extruderHead.obj").to_str().unwrap(),
         "--platform",
@@ -254,7 +250,16 @@ fn on_the_reference_gcode_simulate_alone_finds_the_fcl_audits_collisions() {
         "cpu",
         "-o",
         out.to_str().unwrap(),
-    ]);
+    ])
+}
+
+/// simple_curve's reference G-code simulated without a toolpath.
+#[test]
+fn on_the_reference_gcode_simulate_alone_finds_the_fcl_audits_collisions() {
+    let d = common::data();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = simulate_alone(&d.join("reference_gcode/simple_curve_Gcode.txt"), &out);
     common::assert_success(&o);
     let hits = colliding_lines(&out);
     for line in [25844, 35940, 36071] {
@@ -270,22 +275,10 @@ fn maamplans_own_plan_of_simple_curve_collides_nowhere_against_its_beads() {
     let (job, plan) = common::simple_curve_plan();
     let m = Machine::default();
     let text = write_gcode(&m, &plan.program, &GcodeHeader::default());
-    let d = common::data();
     let dir = tempfile::tempdir().unwrap();
     let (g, out) = (dir.path().join("plan.gcode"), dir.path().join("out"));
     std::fs::write(&g, text).unwrap();
-    let o = cli(&[
-        "simulate",
-        g.to_str().unwrap(),
-        "--head",
-        d.join("extruderHead.obj").to_str().unwrap(),
-        "--platform",
-        d.join("printingPlatform.obj").to_str().unwrap(),
-        "--backend",
-        "cpu",
-        "-o",
-        out.to_str().unwrap(),
-    ]);
+    let o = simulate_alone(&g, &out);
     common::assert_success(&o);
     assert_eq!(colliding_lines(&out), Vec::<usize>::new());
     // Every bead it lays is laid (a program's waypoints include the

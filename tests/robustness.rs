@@ -18,6 +18,16 @@ fn folder(name: &str) -> PathBuf {
 
 /// A single waypoint file: a 30 mm line of 61 waypoints, nozzles up, the
 /// one numbered `far` (if any) moved to `x`.
+/// A folder `name` holding `part.txt` ([`line_file`], nothing far), and
+/// the output folder to plan it into.
+fn line_part(name: &str) -> (PathBuf, PathBuf, PathBuf) {
+    let d = folder(name);
+    let file = d.join("part.txt");
+    line_file(&file, None);
+    let out = d.join("out");
+    (d, file, out)
+}
+
 fn line_file(path: &Path, far: Option<(usize, &str)>) {
     let text: String = (0..61)
         .map(|i| match far {
@@ -94,10 +104,7 @@ fn a_waypoint_far_out_of_reach_costs_nothing() {
 /// without a word about the pipe (it panicked with exit 101).
 #[test]
 fn a_closed_stdout_ends_the_run_quietly() {
-    let d = folder("pipe");
-    let file = d.join("part.txt");
-    line_file(&file, None);
-    let out = d.join("out");
+    let (_, file, out) = line_part("pipe");
     let (reader, writer) = std::io::pipe().unwrap();
     drop(reader);
     let o = common::maamplan()
@@ -119,10 +126,7 @@ fn a_closed_stdout_ends_the_run_quietly() {
 /// of the run before beside its program; files of the user's are kept.
 #[test]
 fn a_new_run_leaves_none_of_the_last_runs_outputs() {
-    let d = folder("outputs");
-    let file = d.join("part.txt");
-    line_file(&file, None);
-    let out = d.join("out");
+    let (d, file, out) = line_part("outputs");
     let plan = |extra: &[&str]| {
         let o = common::maamplan()
             .args(["plan", "--backend", "cpu", "-q", "-o"])
@@ -159,12 +163,9 @@ fn a_new_run_leaves_none_of_the_last_runs_outputs() {
 /// written.
 #[test]
 fn a_machine_file_defaults_what_it_leaves_out_and_names_the_bad_line() {
-    let d = folder("machine");
-    let file = d.join("part.txt");
-    line_file(&file, None);
+    let (d, file, out) = line_part("machine");
     let m = d.join("m.toml");
     std::fs::write(&m, "# my printer\nfeed = 20.0\n[tilt]\nmin = -60.0\n").unwrap();
-    let out = d.join("out");
     let o = common::maamplan()
         .args(["plan", "--backend", "cpu", "--no-plots", "-q", "--machine"])
         .arg(&m)

@@ -2,7 +2,7 @@
 //! the same pose `plan` starts from — or a written plan's poses and
 //! printing moves, one verdict each, counted per layer.
 
-use super::{machine_and_margin, progress, write_json, BackendKind, SceneArgs, UsageError};
+use super::{machine_and_margin, progress, write_json, BackendKind, SceneArgs, Talk, UsageError};
 use anyhow::Result;
 use clap::Args;
 use maamplan::check::{self, CheckError, LayerCount, Verdicts};
@@ -42,12 +42,8 @@ pub struct CheckArgs {
     /// Also write the results as JSON to this file.
     #[arg(long)]
     json: Option<PathBuf>,
-    /// Print only errors.
-    #[arg(short, long)]
-    quiet: bool,
-    /// Print scene details too.
-    #[arg(short, long, conflicts_with = "quiet")]
-    verbose: bool,
+    #[command(flatten)]
+    talk: Talk,
 }
 
 /// Run `check`.
@@ -57,7 +53,7 @@ pub fn run(a: CheckArgs) -> Result<()> {
     let job = a.scene.load(&machine)?;
     let backend = a
         .backend
-        .build_with(opening, &job.scene, !a.quiet, Default::default())?;
+        .build_with(opening, &job.scene, !a.talk.quiet, Default::default())?;
     let prover = Prover::new(
         &machine,
         backend.as_ref(),
@@ -92,13 +88,13 @@ pub fn run(a: CheckArgs) -> Result<()> {
     if let Some(path) = &a.json {
         write_json(path, &check_report(&run, &layers, &verdicts))?;
     }
-    if a.quiet {
+    if a.talk.quiet {
         return Ok(());
     }
     if let Some(w) = job.scene.part.warning() {
         eprintln!("warning: {w}");
     }
-    if a.verbose {
+    if a.talk.verbose {
         print_scene(&job.scene, &prover, backend.as_ref());
     }
     if !flipped.is_empty() {

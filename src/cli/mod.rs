@@ -61,6 +61,38 @@ enum Command {
     Simulate(simulate::SimulateArgs),
 }
 
+/// The machine a run is for, how it checks and how close counts
+/// (`plan`, `simulate`).
+#[derive(Args, Debug, Clone)]
+pub struct RunArgs {
+    /// Machine file (TOML): kinematics, speeds, tip-speed range and the
+    /// `[post]` dialect [default: the built-in machine, the data set's B/C
+    /// rotary-table printer; `plan --write-machine` writes it out to start
+    /// from].
+    #[arg(long)]
+    pub machine: Option<PathBuf>,
+    /// Collision evaluator.
+    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
+    pub backend: BackendKind,
+    /// Safety margin every pose and move keeps from the platform and the
+    /// printed part (mm) [default: the machine file's, 0.05; 0 = touching].
+    #[arg(long)]
+    pub margin: Option<f64>,
+}
+
+/// How much a run prints.
+#[derive(Args, Debug, Clone)]
+pub struct Talk {
+    /// Print only errors.
+    #[arg(short, long)]
+    pub quiet: bool,
+    /// Print more: a line per stage (seconds, collision queries) as it
+    /// ends; `check` the scene's details, `simulate` the first problems of
+    /// each kind.
+    #[arg(short, long, conflicts_with = "quiet")]
+    pub verbose: bool,
+}
+
 /// Inputs shared by every command.
 #[derive(Args, Debug, Clone)]
 pub struct SceneArgs {

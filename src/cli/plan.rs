@@ -2,7 +2,7 @@
 //! report.
 
 use super::progress::Reporter;
-use super::{check_output, load_machine_or_default, BackendKind, SceneArgs, UsageError};
+use super::{check_output, load_machine_or_default, RunArgs, SceneArgs, Talk, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use maamplan::io::gcode::{write_gcode, GcodeHeader};
@@ -45,17 +45,8 @@ pub struct PlanArgs {
     /// report.json and the report files are replaced in it.
     #[arg(short, long, required_unless_present = "write_machine")]
     out: Option<PathBuf>,
-    /// Machine file (TOML) [default: the data set's B/C rotary-table
-    /// printer; `--write-machine` writes it out to start from].
-    #[arg(long)]
-    machine: Option<PathBuf>,
-    /// Collision evaluator.
-    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
-    backend: BackendKind,
-    /// Safety margin every pose and move keeps from the platform and the
-    /// printed part (mm) [default: the machine file's, 0.05].
-    #[arg(long)]
-    margin: Option<f64>,
+    #[command(flatten)]
+    run: RunArgs,
     /// Fail (exit code 3, nothing written) instead of skipping waypoints
     /// that no reachable orientation can print safely.
     #[arg(long)]
@@ -100,12 +91,8 @@ pub struct PlanArgs {
     /// Skip the plots, the 3D scene and the HTML report (faster).
     #[arg(long)]
     no_plots: bool,
-    /// Print only errors.
-    #[arg(short, long)]
-    quiet: bool,
-    /// Print a line per stage (seconds, collision queries) as it ends.
-    #[arg(short, long, conflicts_with = "quiet")]
-    verbose: bool,
+    #[command(flatten)]
+    talk: Talk,
     /// Write the default machine file here and exit.
     #[arg(long)]
     write_machine: Option<PathBuf>,
@@ -125,7 +112,7 @@ impl PlanArgs {
             ("--beta", self.beta, 1.0, 90.0),
             ("--cone", self.cone, 0.1, 90.0),
             ("--edge-step", self.edge_step, 0.01, 10.0),
-            ("--margin", self.margin.unwrap_or(0.05), 0.0, 10.0),
+            ("--margin", self.run.margin.unwrap_or(0.05), 0.0, 10.0),
         ] {
             if !(v >= lo && v <= hi) {
                 return Err(UsageError(format!("{name} must be between {lo} and {hi}")).into());
@@ -162,7 +149,7 @@ impl PlanArgs {
             },
             edge_step: self.edge_step,
             subsample: self.subsample.max(1),
-            margin: self.margin,
+            margin: self.run.margin,
             ..PlanOptions::default()
         }
     }
@@ -177,13 +164,13 @@ pub fn run(a: PlanArgs) -> Result<()> {
     a.check_ranges()?;
     check_output(&out)?;
     let t0 = Instant::now();
-    let show = Reporter::new(a.quiet, a.verbose);
+    let show = Reporter::new(a.talk.quiet, a.talk.verbose);
     show.begin("loading");
-    let machine = load_machine_or_default(a.machine.as_deref())?;
+    let machine = load_machine_or_default(a.run.machine.as_deref())?;
     let mut opts = a.plan_options();
     // Stages 1 and 2 need only the toolpath: they run while the scene is
     // built, and the GPU opens meanwhile.
-    let opening = a.backend.open();
+    let opening = a.run.backend.open();
     // A program's sections are as far apart as its travels.
     let (job, prepared) = a.scene.load_beside(&machine, |toolpath, jump| {
         let opts = PlanOptions {
@@ -195,9 +182,10 @@ pub fn run(a: PlanArgs) -> Result<()> {
     if let Some(jump) = job.jump {
         opts.jump = jump;
     }
-    let backend = a
-        .backend
-        .build_with(opening, &job.scene, !a.quiet, Default::default())?;
+    let backend =
+        a.run
+            .backend
+            .build_with(opening, &job.scene, !a.talk.quiet, Default::default())?;
     let mut stages = vec![("load".to_string(), t0.elapsed().as_secs_f64())];
     show.stage_line("load", stages[0].1, None);
     show.note(&job.scene.head_cache.to_string());
@@ -247,7 +235,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
     let files = rendered.into_files(pretty_bytes(&report));
     write_output(&out, &files)?;
     show.finish();
-    if !a.quiet {
+    if !a.talk.quiet {
         let written = Written {
             out: &out,
             names: top_level_names(&files),

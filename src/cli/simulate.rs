@@ -3,7 +3,7 @@
 //! would run it; the wiring of [`maamplan::simulate`]'s stages.
 
 use super::progress::Reporter;
-use super::{check_output, machine_and_margin, BackendKind, SceneArgs};
+use super::{check_output, machine_and_margin, RunArgs, SceneArgs, Talk};
 use anyhow::{Context, Result};
 use clap::Args;
 use maamplan::default_job::default_head;
@@ -34,18 +34,8 @@ pub struct SimulateArgs {
     gcode: PathBuf,
     #[command(flatten)]
     scene: SceneArgs,
-    /// Machine file: kinematics, speeds, tip-speed range and the `[post]`
-    /// dialect (axis letters and signs) the program is read with
-    /// [default: the built-in machine, the data set's printer].
-    #[arg(long)]
-    machine: Option<PathBuf>,
-    /// Collision evaluator.
-    #[arg(long, value_enum, default_value_t = BackendKind::Auto)]
-    backend: BackendKind,
-    /// Safety margin: a move collides when anything comes closer than this
-    /// to the head (mm) [default: the machine file's, 0.05; 0 = touching].
-    #[arg(long)]
-    margin: Option<f64>,
+    #[command(flatten)]
+    run: RunArgs,
     /// Output folder: report.json, moves.csv and report.html are replaced
     /// in it [default: print the summary only].
     #[arg(short, long)]
@@ -53,12 +43,8 @@ pub struct SimulateArgs {
     /// Skip report.html.
     #[arg(long)]
     no_plots: bool,
-    /// Print only errors.
-    #[arg(short, long)]
-    quiet: bool,
-    /// Print a line per stage and the first problems of each kind.
-    #[arg(short, long, conflicts_with = "quiet")]
-    verbose: bool,
+    #[command(flatten)]
+    talk: Talk,
 }
 
 /// The toolpath, scene and timeline: the job's (the program printing its
@@ -109,13 +95,13 @@ fn load_scene(
 /// Run `simulate`.
 pub fn run(a: SimulateArgs) -> Result<()> {
     let t0 = Instant::now();
-    let (machine, margin) = machine_and_margin(a.machine.as_deref(), a.margin)?;
+    let (machine, margin) = machine_and_margin(a.run.machine.as_deref(), a.run.margin)?;
     if let Some(out) = &a.out {
         check_output(out)?;
     }
     let program = load_program(&a.gcode, &machine)?;
     let moves = &program.moves;
-    let show = Reporter::new(a.quiet, a.verbose);
+    let show = Reporter::new(a.talk.quiet, a.talk.verbose);
     show.begin("loading");
     let (source, toolpath, scene, timeline) = load_scene(&a, &machine, &program)?;
     show.stage_line("load", t0.elapsed().as_secs_f64(), None);
@@ -126,7 +112,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
 
     show.begin("checking");
     let t2 = Instant::now();
-    let backend = a.backend.build(&scene, !a.quiet)?;
+    let backend = a.run.backend.build(&scene, !a.talk.quiet)?;
     let tick = |done: u64, total: u64| show.on(Progress::Queries { done, total });
     let (collides, queries) = simulate::check_moves(
         &machine,
@@ -164,13 +150,13 @@ pub fn run(a: SimulateArgs) -> Result<()> {
         None => Vec::new(),
     };
     show.finish();
-    if a.quiet {
+    if a.talk.quiet {
         return Ok(());
     }
     if let Some(w) = scene.part.warning() {
         eprintln!("warning: {w}");
     }
-    print!("{}", summary_text(&sim, a.verbose));
+    print!("{}", summary_text(&sim, a.talk.verbose));
     println!("{}", part_line(scene.part));
     let s = &sim.summary;
     println!(

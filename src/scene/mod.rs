@@ -375,15 +375,8 @@ fn bead_groups(
     if use_surface.iter().all(|&s| s) {
         return Vec::new();
     }
-    let pos = toolpath.positions();
-    let dir = toolpath.directions();
-    let layer: Vec<usize> = toolpath.iter().map(|(k, _)| k).collect();
-    let path = beads::BeadPath {
-        pos: &pos,
-        dir: &dir,
-        layer: &layer,
-    };
-    beads::deposit(path, platform, &cfg.beads)
+    let held = beads::HeldPath::of(toolpath);
+    beads::deposit(held.path(), platform, &cfg.beads)
         .groups
         .into_iter()
         .filter(|g| g.layer.is_some_and(|k| !use_surface[k]))

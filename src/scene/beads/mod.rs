@@ -131,6 +131,35 @@ pub struct BeadPath<'a> {
     pub layer: &'a [usize],
 }
 
+/// A toolpath's tips, axes and layers in print order, held for the
+/// [`BeadPath`] over them.
+#[derive(Clone, Debug)]
+pub struct HeldPath {
+    pos: Vec<[f64; 3]>,
+    dir: Vec<[f64; 3]>,
+    layer: Vec<usize>,
+}
+
+impl HeldPath {
+    /// Every waypoint of `toolpath`, in print order.
+    pub fn of(toolpath: &crate::toolpath::Toolpath) -> HeldPath {
+        HeldPath {
+            pos: toolpath.positions(),
+            dir: toolpath.directions(),
+            layer: toolpath.iter().map(|(k, _)| k).collect(),
+        }
+    }
+
+    /// The path to deposit along.
+    pub fn path(&self) -> BeadPath<'_> {
+        BeadPath {
+            pos: &self.pos,
+            dir: &self.dir,
+            layer: &self.layer,
+        }
+    }
+}
+
 impl BeadPath<'_> {
     /// Does the segment into waypoint `g` lay a bead: same layer as the
     /// waypoint before, a positive length no longer than `gap`?
@@ -407,17 +436,9 @@ mod tests {
         gap: 5.0,
     };
 
-    /// A flat platform: a 100 mm square at z = 40, two triangles.
+    /// A flat platform: a 100 mm square plate with its top at z = 40.
     fn platform() -> Mesh {
-        Mesh {
-            vertices: vec![
-                [-50.0, -50.0, 40.0],
-                [50.0, -50.0, 40.0],
-                [50.0, 50.0, 40.0],
-                [-50.0, 50.0, 40.0],
-            ],
-            triangles: vec![[0, 1, 2], [0, 2, 3]],
-        }
+        crate::default_job::box_mesh([-50.0, -50.0, 39.0], [50.0, 50.0, 40.0])
     }
 
     /// A toolpath with its true surface normals: `layers` layers 0.4 mm

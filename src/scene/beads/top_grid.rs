@@ -457,13 +457,9 @@ mod tests {
     #[test]
     fn the_rings_find_what_a_plain_loop_finds() {
         let mut grid = TopGrid::new(0.7, 1.0);
-        let mut rng = 0x9e3779b97f4a7c15u64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            (rng >> 11) as f64 / (1u64 << 53) as f64
-        };
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut next = || rng.random::<f64>();
         for k in 0..400 {
             let a = DVec3::new(next() * 8.0, next() * 8.0, next() * 3.0);
             let t = DVec3::new(next() - 0.5, next() - 0.5, 0.0).normalize() * 0.6;
