@@ -235,6 +235,25 @@ fn simulate_without_a_toolpath_checks_a_program_against_its_own_beads() {
     }
 }
 
+/// Without a toolpath the options that move or turn one have nothing to
+/// act on: `simulate` says they are ignored, and checks the same lines.
+#[test]
+fn simulate_without_a_toolpath_says_which_options_it_ignores() {
+    let (program, through) = wall_program(true);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let args = ["simulate", "--backend", "cpu", "--place", "0,0,5", "--y-up"];
+    let (_d, _g, o) = run_on(
+        &program,
+        "wall.gcode",
+        &[&args[..], &["-o", out.to_str().unwrap()]].concat(),
+    );
+    common::assert_success(&o);
+    let err = common::stderr(&o);
+    assert!(err.contains("warning: --place, --y-up ignored"), "{err}");
+    assert_eq!(colliding_lines(&out), [through]);
+}
+
 /// `simulate PROGRAM` with the data set's head and platform, no toolpath,
 /// on the cpu, into `out`.
 fn simulate_alone(program: &std::path::Path, out: &std::path::Path) -> std::process::Output {

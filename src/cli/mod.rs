@@ -98,7 +98,8 @@ pub struct Talk {
 pub struct SceneArgs {
     /// Toolpath folder (waypoint/<k>.txt, layer/<k>.obj), a single
     /// waypoint file, or a G-code program (the tip path it prints, read
-    /// with --machine); omitted: the built-in example job.
+    /// with --machine); omitted: the built-in example job (`simulate`: the
+    /// part the program lays itself).
     toolpath: Option<PathBuf>,
     /// Print head mesh (OBJ/STL/glTF): nozzle tip at the origin, nozzle
     /// pointing down along -z (the head extends up +z), closed
@@ -158,6 +159,19 @@ impl PartArg {
 }
 
 impl SceneArgs {
+    /// The options given that move or turn a toolpath (`--place`,
+    /// `--y-up`, `--tilt`, `--keep-normals`), as the command line spells
+    /// them: without a toolpath they have nothing to act on.
+    pub fn toolpath_options(&self) -> Vec<&'static str> {
+        let given = [
+            (self.place.is_some(), "--place"),
+            (self.y_up, "--y-up"),
+            (self.tilt.is_some(), "--tilt"),
+            (self.keep_normals, "--keep-normals"),
+        ];
+        given.iter().filter(|g| g.0).map(|g| g.1).collect()
+    }
+
     /// Load the inputs (or the built-in example) and build the scene,
     /// beads (where the part is modelled from them) as `machine` lays them.
     pub fn load(&self, machine: &Machine) -> Result<LoadedJob> {

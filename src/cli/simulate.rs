@@ -62,6 +62,13 @@ fn load_scene(
         scene.restamp(|s| timeline.stamp(s));
         return Ok((job.source, job.toolpath, scene, timeline));
     }
+    let ignored = a.scene.toolpath_options();
+    if !ignored.is_empty() && !a.talk.quiet {
+        eprintln!(
+            "warning: {} ignored: without a TOOLPATH the program is checked in its own frame, the machine's",
+            ignored.join(", ")
+        );
+    }
     let head = match &a.scene.head {
         Some(p) => load_mesh(p)?,
         None => default_head(),
