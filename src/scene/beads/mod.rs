@@ -29,6 +29,7 @@
 //! top is found in a uniform grid of the beads' top faces and the
 //! platform's triangles, cells as large as the search radius.
 
+mod settle;
 mod stacking;
 mod top_grid;
 
@@ -229,7 +230,7 @@ pub fn deposit(path: BeadPath, platform: &Mesh, s: &BeadSettings) -> Deposit {
             tops.insert_strip(b.path_strip(s.width), layer, b.path);
         }
         tops.fit_layer(first, layer);
-        groups.push(group_of(&beads, layer));
+        groups.push(group_of(&beads, layer, s.width));
     }
     Deposit { groups, heights }
 }
@@ -402,13 +403,15 @@ pub fn is_wall(i: usize) -> bool {
 }
 
 /// A layer's beads as one stamped group.
-fn group_of(beads: &[Bead], layer: usize) -> PartGroup {
+fn group_of(beads: &[Bead], layer: usize, width: f64) -> PartGroup {
+    let mut beads = beads.to_vec();
+    settle::settle_tops(&mut beads, width);
     let mut mesh = Mesh {
         vertices: Vec::with_capacity(8 * beads.len()),
         triangles: Vec::with_capacity(12 * beads.len()),
     };
     let mut stamps = Vec::with_capacity(12 * beads.len());
-    for b in beads {
+    for b in &beads {
         let base = mesh.vertices.len() as u32;
         mesh.vertices
             .extend(b.corners.iter().map(|c| c.as_vec3().to_array()));
@@ -531,11 +534,14 @@ mod tests {
             for (_, b) in boxes(group) {
                 assert_eq!(b.open_edges(), 0);
                 let vol = b.signed_volume();
-                // Segments of 0.5 or 0.7 mm lengthened by 0.7, 0.7 wide, at
-                // least the 0.4 mm layer height deep (and the top's lift).
-                let lift = top_lift(0.7);
+                // Segments of 0.5 or 0.7 mm lengthened by 0.7, 0.7 wide, as
+                // deep as the 0.33 to 0.45 mm down to the material below
+                // and the bottom's allowance for a turned bead, the top
+                // settled on its layer's parallel surface (2° of lift).
+                let (full, settled) = (top_lift(0.7), settle::lift_for(0.7, 2.0));
                 assert!(
-                    vol > 1.2 * 0.7 * (0.39 + lift) && vol < 1.4 * 0.7 * (0.45 + lift),
+                    vol > 1.2 * 0.7 * (0.33 + full + settled)
+                        && vol < 1.4 * 0.7 * (0.45 + full + 1.01 * settled),
                     "{vol}"
                 );
                 beads += 1;

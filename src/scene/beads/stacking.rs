@@ -82,7 +82,7 @@ pub fn stacked_layers(path: BeadPath, platform: &Mesh, s: &BeadSettings) -> Stac
         g += placed;
     }
     let deposit = Deposit {
-        groups: layer_groups(&stacker.beads, &stacker.layer_of),
+        groups: layer_groups(&stacker.beads, &stacker.layer_of, s.width),
         heights: stacker.heights,
     };
     Stacking {
@@ -219,7 +219,11 @@ impl Stacker<'_> {
 
 /// `beads` (each with the waypoint it ends at, in print order) as one
 /// group per layer, each bead in the final layer of its waypoint.
-fn layer_groups(beads: &[(usize, Bead)], layer_of: &[usize]) -> Vec<crate::scene::PartGroup> {
+fn layer_groups(
+    beads: &[(usize, Bead)],
+    layer_of: &[usize],
+    width: f64,
+) -> Vec<crate::scene::PartGroup> {
     let mut groups = Vec::new();
     let mut start = 0;
     while start < beads.len() {
@@ -230,7 +234,7 @@ fn layer_groups(beads: &[(usize, Bead)], layer_of: &[usize]) -> Vec<crate::scene
                 .take_while(|(g, _)| layer_of[*g] == layer)
                 .count();
         let layer_beads: Vec<Bead> = beads[start..end].iter().map(|(_, b)| *b).collect();
-        groups.push(group_of(&layer_beads, layer));
+        groups.push(group_of(&layer_beads, layer, width));
         start = end;
     }
     groups

@@ -424,7 +424,7 @@ fn stands_over(
 /// The normal of the plane through `points` (least squares), when they
 /// spread over a surface: the second-largest spread at least a quarter of
 /// the largest (in standard deviation) and five points or more.
-fn plane_normal(points: &[DVec3]) -> Option<DVec3> {
+pub(super) fn plane_normal(points: &[DVec3]) -> Option<DVec3> {
     use glamx::{glam, DSymmetricEigen3};
     if points.len() < 5 {
         return None;
