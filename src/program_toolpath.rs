@@ -32,7 +32,7 @@ use crate::geometry::Mesh;
 use crate::io::gcode_read::{axes_of, load_program, GcodeMove, Program};
 use crate::io::{InputError, Placement};
 use crate::kinematics::{forward, Machine};
-use crate::scene::beads::{self, BeadPath, BeadSettings, DEFAULT_GAP};
+use crate::scene::beads::{self, BeadSettings, DEFAULT_GAP};
 use crate::scene::{stamp_of, PartGroup};
 use crate::toolpath::{Layer, Toolpath, Waypoint};
 use glam::DVec3;
@@ -142,7 +142,6 @@ impl ProgramToolpath {
             .iter()
             .map(|p| marks.partition_point(|&l| l < p.line))
             .collect();
-        let support = |t: u32| t == m.support.tool && t != m.extrusion.tool;
         let mut layers: Vec<Layer> = Vec::new();
         for (g, p) in points.iter().enumerate() {
             if g == 0 || mark_count[g] != mark_count[g - 1] {
@@ -166,7 +165,7 @@ impl ProgramToolpath {
         for (k, l) in pt.toolpath.layers.iter_mut().enumerate() {
             l.name = k.to_string();
         }
-        pt.name_support_layers(support);
+        pt.name_support_layers(support_tool(m));
         pt
     }
 
@@ -212,15 +211,9 @@ impl ProgramToolpath {
     /// `platform`, as `s` makes them (their gap from [`Self::bead_settings`]).
     pub fn deposit(&self, platform: &Mesh, s: &BeadSettings, m: &Machine) -> Deposited {
         let s = self.bead_settings(s);
-        let pos = self.toolpath.positions();
-        let dir = self.toolpath.directions();
-        let layer: Vec<usize> = self.toolpath.iter().map(|(k, _)| k).collect();
-        let path = BeadPath {
-            pos: &pos,
-            dir: &dir,
-            layer: &layer,
-        };
-        if self.layers_from_comments || pos.is_empty() {
+        let held = beads::HeldPath::of(&self.toolpath);
+        let path = held.path();
+        if self.layers_from_comments || self.toolpath.waypoint_count() == 0 {
             return Deposited {
                 toolpath: self.toolpath.clone(),
                 groups: beads::deposit(path, platform, &s).groups,
@@ -231,8 +224,7 @@ impl ProgramToolpath {
             toolpath: self.toolpath.relayered(&stacking.layer_of),
             ..self.clone()
         };
-        let support = |t: u32| t == m.support.tool && t != m.extrusion.tool;
-        relayered.name_support_layers(support);
+        relayered.name_support_layers(support_tool(m));
         Deposited {
             toolpath: relayered.toolpath,
             groups: stacking.deposit.groups,
@@ -241,7 +233,7 @@ impl ProgramToolpath {
 
     /// `groups` ([`Self::deposit`]'s) without the beads of segments the
     /// program crosses without extruding: the material it really lays.
-    pub fn printed_only(&self, groups: Vec<PartGroup>) -> Vec<PartGroup> {
+    pub fn printed_only(&self, mut groups: Vec<PartGroup>) -> Vec<PartGroup> {
         // A bead's stamp is `stamp_of` the waypoint it ends at.
         let keep = |stamp: u32| {
             (stamp as usize)
@@ -249,24 +241,12 @@ impl ProgramToolpath {
                 .and_then(|g| self.printed.get(g))
                 .is_some_and(|&p| p)
         };
+        for grp in &mut groups {
+            // A bead's triangles all carry its stamp: whole beads go.
+            grp.retain_stamps(keep);
+        }
+        groups.retain(|grp| !grp.stamps.is_empty());
         groups
-            .into_iter()
-            .map(|mut grp| {
-                // Twelve triangles a bead, all with its stamp: whole beads go.
-                let mut tris = Vec::with_capacity(grp.mesh.triangles.len());
-                let mut stamps = Vec::with_capacity(grp.stamps.len());
-                for (t, s) in grp.mesh.triangles.iter().zip(&grp.stamps) {
-                    if keep(*s) {
-                        tris.push(*t);
-                        stamps.push(*s);
-                    }
-                }
-                grp.mesh.triangles = tris;
-                grp.stamps = stamps;
-                grp
-            })
-            .filter(|grp| !grp.stamps.is_empty())
-            .collect()
     }
 
     /// The section distance for `layered` (this toolpath in its final
@@ -296,6 +276,11 @@ impl ProgramToolpath {
             bridged: travels.iter().filter(|&&d| d <= jump).count(),
         }
     }
+}
+
+/// Is a tool machine `m`'s support extruder (and not its model one)?
+fn support_tool(m: &Machine) -> impl Fn(u32) -> bool + '_ {
+    |t| t == m.support.tool && t != m.extrusion.tool
 }
 
 /// The waypoints of `moves` on machine `m` (module doc).

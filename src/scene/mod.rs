@@ -146,6 +146,20 @@ impl PartGroup {
         self.kind == GroupKind::Beads && beads::is_wall(i)
     }
 
+    /// Keep only the triangles whose stamp `keep` accepts (for beads,
+    /// whole beads: a bead's twelve triangles share its stamp, so
+    /// [`PartGroup::is_wall`] still reads them right).
+    pub fn retain_stamps(&mut self, keep: impl Fn(u32) -> bool) {
+        let (triangles, stamps) = self
+            .mesh
+            .triangles
+            .iter()
+            .zip(&self.stamps)
+            .filter(|(_, &s)| keep(s))
+            .unzip();
+        (self.mesh.triangles, self.stamps) = (triangles, stamps);
+    }
+
     /// Smallest and largest stamp in the group.
     pub fn stamp_range(&self) -> (u32, u32) {
         let lo = self.stamps.iter().copied().min().unwrap_or(u32::MAX);

@@ -10,11 +10,9 @@
 //! never gets back: on the tilted simple_curve, 0.06 mm of it cost a third
 //! of the run.
 
-use super::top_grid::plane_normal;
+use super::top_grid::PathEnds;
 use super::{across, Bead, AGREE_DEG, FIT_WIDTHS};
-use glam::DVec3;
 use rayon::prelude::*;
-use rustc_hash::FxHashMap as HashMap;
 
 /// The turn (degrees) a top allows beyond its angle to the surface fitted
 /// through its layer's paths: the fit's own error.
@@ -30,33 +28,13 @@ pub(super) fn lift_for(width: f64, deg: f64) -> f64 {
 /// needs. Only a layer's first box of a segment (the one the material
 /// orients) is settled; bottoms stay where they are.
 pub(super) fn settle_tops(beads: &mut [Bead], width: f64) {
-    let radius = FIT_WIDTHS * width;
-    let cell = |p: DVec3| (p / radius).floor().as_ivec3().to_array();
-    let mut cells: HashMap<[i32; 3], Vec<DVec3>> = HashMap::default();
-    for b in beads.iter().filter(|b| b.primary) {
-        for e in b.path {
-            cells.entry(cell(e)).or_default().push(e);
-        }
-    }
+    let primary = beads.iter().filter(|b| b.primary).map(|b| b.path);
+    let ends = PathEnds::new(primary, FIT_WIDTHS * width);
     let full = lift_for(width, AGREE_DEG);
     beads.par_iter_mut().filter(|b| b.primary).for_each(|b| {
         let [a, e] = b.path;
-        let mid = 0.5 * (a + e);
-        let c = cell(mid);
-        let mut points: Vec<DVec3> = Vec::new();
-        for x in -1..=1 {
-            for y in -1..=1 {
-                for z in -1..=1 {
-                    if let Some(list) = cells.get(&[c[0] + x, c[1] + y, c[2] + z]) {
-                        points.extend(list.iter().filter(|p| (**p - mid).length() <= radius));
-                    }
-                }
-            }
-        }
-        points.sort_by(|p, q| p.to_array().partial_cmp(&q.to_array()).expect("finite"));
-        points.dedup();
         let t = (e - a).normalize_or_zero();
-        let Some(own) = plane_normal(&points).and_then(|n| across(n, t)) else {
+        let Some(own) = ends.normal_at(0.5 * (a + e)).and_then(|n| across(n, t)) else {
             return;
         };
         let off = own.dot(b.up).abs().min(1.0).acos().to_degrees();

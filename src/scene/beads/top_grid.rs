@@ -158,15 +158,17 @@ impl TopGrid {
     }
 
     /// Fit the surface under every strip of `layer` (listed from `first`
-    /// on): [`TopGrid::path_normal`] at the middle of its path, kept for
-    /// the waypoints above it to read.
+    /// on): [`PathEnds::normal_at`] the middle of its path, through the
+    /// layer's path ends, kept for the waypoints above it to read.
     pub fn fit_layer(&mut self, first: usize, layer: usize) {
-        let ends = LayerEnds::new(&self.strips, first, layer, self.fit_radius);
+        // The paths alone, not the beads' guessed orientations.
+        let of_layer = self.strips[first..].iter().filter(|s| s.layer == layer);
+        let ends = PathEnds::new(of_layer.map(|s| s.path), self.fit_radius);
         let normals: Vec<Option<DVec3>> = self.strips[first..]
             .par_iter()
             .map(|s| {
                 (s.layer == layer)
-                    .then(|| self.path_normal(0.5 * (s.path[0] + s.path[1]), &ends))
+                    .then(|| ends.normal_at(0.5 * (s.path[0] + s.path[1])))
                     .flatten()
             })
             .collect();
@@ -322,61 +324,46 @@ impl TopGrid {
         };
         (below, stands)
     }
+}
 
-    /// The normal of the surface the beads of `layer` were laid on around
-    /// `q`: the plane fitted through the ends of that layer's bead paths
-    /// within the fit radius of `q` (the paths alone, not the beads'
-    /// guessed orientations), when they spread over a surface rather than
-    /// along a line.
-    fn path_normal(&self, q: DVec3, ends: &LayerEnds) -> Option<DVec3> {
-        let r = self.fit_radius;
-        let mut points: Vec<DVec3> = ends
-            .near(q)
-            .flat_map(|&s| self.strips[s as usize].path)
-            .filter(|e| (*e - q).length() <= r)
-            .collect();
+/// The ends of one layer's bead paths by the cells (`radius` mm cubes)
+/// they lie in: every end within `radius` of a point lies in the 27
+/// cells around the point's.
+pub(super) struct PathEnds {
+    radius: f64,
+    cells: HashMap<[i32; 3], Vec<DVec3>>,
+}
+
+impl PathEnds {
+    /// The ends of `paths`, to fit surfaces over `radius` mm.
+    pub fn new(paths: impl Iterator<Item = [DVec3; 2]>, radius: f64) -> PathEnds {
+        let radius = radius.max(1e-3);
+        let mut cells: HashMap<[i32; 3], Vec<DVec3>> = HashMap::default();
+        for e in paths.flatten() {
+            let c = (e / radius).floor().as_ivec3().to_array();
+            cells.entry(c).or_default().push(e);
+        }
+        PathEnds { radius, cells }
+    }
+
+    /// The normal of the plane through the ends within the radius of `q`
+    /// (each once), where they spread over a surface ([`plane_normal`]):
+    /// the surface the paths were laid on there.
+    pub fn normal_at(&self, q: DVec3) -> Option<DVec3> {
+        let c = (q / self.radius).floor().as_ivec3().to_array();
+        let mut points: Vec<DVec3> = Vec::new();
+        for x in -1..=1 {
+            for y in -1..=1 {
+                for z in -1..=1 {
+                    if let Some(list) = self.cells.get(&[c[0] + x, c[1] + y, c[2] + z]) {
+                        points.extend(list.iter().filter(|e| (**e - q).length() <= self.radius));
+                    }
+                }
+            }
+        }
         points.sort_by(|a, b| a.to_array().partial_cmp(&b.to_array()).expect("finite"));
         points.dedup();
         plane_normal(&points)
-    }
-}
-
-/// The strips of one layer by the cells (`radius` mm cubes) their path's
-/// ends lie in: every end within `radius` of a point is listed in the 27
-/// cells around the point's.
-struct LayerEnds {
-    radius: f64,
-    cells: HashMap<[i32; 3], Vec<u32>>,
-}
-
-impl LayerEnds {
-    /// The strips of `layer` from `first` on.
-    fn new(strips: &[Strip], first: usize, layer: usize, radius: f64) -> LayerEnds {
-        let radius = radius.max(1e-3);
-        let mut cells: HashMap<[i32; 3], Vec<u32>> = HashMap::default();
-        for (i, s) in strips.iter().enumerate().skip(first) {
-            if s.layer != layer {
-                continue;
-            }
-            let [a, b] = s.path.map(|e| (e / radius).floor().as_ivec3().to_array());
-            cells.entry(a).or_default().push(i as u32);
-            if b != a {
-                cells.entry(b).or_default().push(i as u32);
-            }
-        }
-        LayerEnds { radius, cells }
-    }
-
-    /// The strips with an end in the cells around `q`'s (one with its
-    /// ends in two of them comes twice: callers dedup its points).
-    fn near(&self, q: DVec3) -> impl Iterator<Item = &u32> {
-        let c = (q / self.radius).floor().as_ivec3().to_array();
-        (-1..=1)
-            .flat_map(move |x| {
-                (-1..=1).flat_map(move |y| (-1..=1).map(move |z| [c[0] + x, c[1] + y, c[2] + z]))
-            })
-            .filter_map(|k| self.cells.get(&k))
-            .flatten()
     }
 }
 
