@@ -13,13 +13,17 @@ use maamplan::kinematics::Machine;
 use maamplan::plan::candidates::Sampling;
 use maamplan::plan::smooth::Smoothing;
 use maamplan::plan::{plan_prepared, Plan, PlanOptions, Prepared, Skip};
-use maamplan::report::html::{report_html, ReportContext};
+use maamplan::report::html::{report_html, ReportContext, Seen};
 use maamplan::report::json::{
     plan_report, pretty_bytes, skipped_waypoints, PlanRun, SkippedWaypoint,
 };
+use maamplan::report::playback::Playback;
 use maamplan::report::plots::figure_files;
+use maamplan::report::program_glb::{program_glb, ProgramScene};
 use maamplan::report::scene_glb::scene_glb;
+use maamplan::report::snapshot::pictures;
 use maamplan::report::{part_line, summary_rows, warnings};
+use maamplan::simulate::replay;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -216,7 +220,17 @@ pub fn run(a: PlanArgs) -> Result<()> {
         command: &command,
         flipped_layers: &flipped,
     };
-    let rendered = Rendered::new(&machine, &p, &job, &context, seconds, !a.no_plots, &show)?;
+    let margin = a.run.margin.unwrap_or(machine.margin);
+    let rendered = Rendered::new(
+        &machine,
+        &p,
+        &job,
+        &context,
+        seconds,
+        !a.no_plots,
+        margin,
+        &show,
+    )?;
     stages.extend(rendered.stages.iter().cloned());
     let report = plan_report(
         &machine,
@@ -289,9 +303,10 @@ struct Rendered {
     stages: Vec<(String, f64)>,
 }
 
-/// The scene, the page and the plots folder.
+/// The scenes, the page and the plots folder.
 struct ReportFiles {
     glb: Vec<u8>,
+    program_glb: Vec<u8>,
     html: String,
     plots: Vec<FolderFile>,
 }
@@ -307,6 +322,7 @@ impl Rendered {
         context: &ReportContext,
         seconds: f64,
         plots: bool,
+        margin: f64,
         show: &Reporter,
     ) -> Result<Self> {
         let header = GcodeHeader {
@@ -342,11 +358,34 @@ impl Rendered {
                 show.begin("report");
                 let (figures, plots) =
                     figures.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-                let html = report_html(context, machine, p, &figures, seconds);
+                let (moves, timeline, sim) = replay(machine, &job.toolpath, &gcode, margin)
+                    .map_err(|e| anyhow::anyhow!("reading the written program back: {e}"))?;
+                let playback = Playback::new(&moves, &sim, &timeline);
+                let stamp = |s: u32| if s == 0 { 0 } else { timeline.stamp(s) };
+                let program = ProgramScene {
+                    machine,
+                    scene: &job.scene,
+                    playback: &playback,
+                    stamp: &stamp,
+                };
+                let (program_glb, pictures) = rayon::join(
+                    || program_glb(&program),
+                    || pictures(&program, margin as f32),
+                );
+                let seen = Seen {
+                    playback: &playback,
+                    pictures: &pictures,
+                };
+                let html = report_html(context, machine, p, &figures, seconds, Some(&seen));
                 let report_s = t.elapsed().as_secs_f64();
                 show.stage_line("report", report_s, None);
                 stages.push(("report".to_string(), report_s));
-                Some(ReportFiles { glb, html, plots })
+                Some(ReportFiles {
+                    glb,
+                    program_glb,
+                    html,
+                    plots,
+                })
             }
         };
         Ok(Rendered {
@@ -367,6 +406,7 @@ impl Rendered {
         ];
         if let Some(r) = self.report {
             files.push(("scene.glb".into(), r.glb));
+            files.push(("program.glb".into(), r.program_glb));
             files.push(("report.html".into(), r.html.into_bytes()));
             files.extend(r.plots);
         }
@@ -377,11 +417,12 @@ impl Rendered {
 /// Everything `plan` may write into its output folder: a run replaces
 /// all of it, so no earlier run's report or plots stay beside a new
 /// program.
-const PLAN_OUTPUTS: [&str; 6] = [
+const PLAN_OUTPUTS: [&str; 7] = [
     "toolpath.gcode",
     "plan.csv",
     "report.json",
     "scene.glb",
+    "program.glb",
     "report.html",
     "plots",
 ];

@@ -10,15 +10,18 @@ use maamplan::default_job::default_head;
 use maamplan::geometry::Mesh;
 use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
-use maamplan::io::output::write_folder_atomic;
+use maamplan::io::output::write_output_set;
 use maamplan::job::scene_config;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions, Progress};
-use maamplan::report::html::{simulation_html, ReportContext};
+use maamplan::report::html::{simulation_html, ReportContext, Seen};
 use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::moves_csv::write_moves_csv;
 use maamplan::report::part_line;
+use maamplan::report::playback::Playback;
 use maamplan::report::plots::simulation_figures;
+use maamplan::report::program_glb::{program_glb, ProgramScene};
+use maamplan::report::snapshot::pictures;
 use maamplan::scene::{BeadSettings, Scene};
 use maamplan::simulate::{self, ProblemKind, Simulation, Timeline};
 use maamplan::toolpath::Toolpath;
@@ -36,11 +39,11 @@ pub struct SimulateArgs {
     scene: SceneArgs,
     #[command(flatten)]
     run: RunArgs,
-    /// Output folder: report.json, moves.csv and report.html are replaced
-    /// in it [default: print the summary only].
+    /// Output folder: report.json, moves.csv, report.html and program.glb
+    /// are replaced in it [default: print the summary only].
     #[arg(short, long)]
     out: Option<PathBuf>,
-    /// Skip report.html.
+    /// Skip report.html and program.glb.
     #[arg(long)]
     no_plots: bool,
     #[command(flatten)]
@@ -152,7 +155,12 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 seconds: t0.elapsed().as_secs_f64(),
                 command: &std::env::args().collect::<Vec<_>>().join(" "),
             };
-            write_outputs(out, &machine, &sim, &run, !a.no_plots)?
+            let shown = Shown {
+                scene: &scene,
+                playback: &Playback::new(moves, &sim, &timeline),
+                margin,
+            };
+            write_outputs(out, &machine, &sim, &run, (!a.no_plots).then_some(&shown))?
         }
         None => Vec::new(),
     };
@@ -182,14 +190,26 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     Ok(())
 }
 
-/// Write report.json, moves.csv and (with `plots`) report.html into `out`
-/// at once; returns their names.
+/// Everything `simulate` may write into its output folder: a run replaces
+/// all of it, so no earlier run's page or scene stays beside a new report.
+const SIMULATE_OUTPUTS: [&str; 4] = ["report.json", "moves.csv", "report.html", "program.glb"];
+
+/// What the report's scene and pictures show: the part as the program
+/// prints it (the scene re-stamped in print order) and the program's timing.
+struct Shown<'a> {
+    scene: &'a Scene,
+    playback: &'a Playback<'a>,
+    margin: f64,
+}
+
+/// Write report.json, moves.csv and (with `shown`) report.html and
+/// program.glb into `out` at once; returns their names.
 fn write_outputs(
     out: &Path,
     machine: &Machine,
     sim: &Simulation,
     run: &SimulationRun,
-    plots: bool,
+    shown: Option<&Shown>,
 ) -> Result<Vec<String>> {
     let mut files = vec![
         (
@@ -201,9 +221,24 @@ fn write_outputs(
             write_moves_csv(sim).into_bytes(),
         ),
     ];
-    if plots {
-        let figs = simulation_figures(machine, sim)
-            .map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+    if let Some(shown) = shown {
+        let program = ProgramScene {
+            machine,
+            scene: shown.scene,
+            playback: shown.playback,
+            stamp: &|s| s,
+        };
+        let ((glb, pictures), figs) = rayon::join(
+            || {
+                rayon::join(
+                    || program_glb(&program),
+                    || pictures(&program, shown.margin as f32),
+                )
+            },
+            || simulation_figures(machine, sim),
+        );
+        let figs = figs.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
+        files.push((PathBuf::from("program.glb"), glb));
         let html = simulation_html(
             &ReportContext {
                 source: &format!("{} ({})", run.gcode, run.toolpath),
@@ -214,10 +249,14 @@ fn write_outputs(
             machine,
             sim,
             &figs,
+            Some(&Seen {
+                playback: shown.playback,
+                pictures: &pictures,
+            }),
         );
         files.push((PathBuf::from("report.html"), html.into_bytes()));
     }
-    write_folder_atomic(out, &files)
+    write_output_set(out, &files, &SIMULATE_OUTPUTS)
         .with_context(|| format!("{}: cannot write the report", out.display()))?;
     Ok(files.iter().map(|f| f.0.display().to_string()).collect())
 }

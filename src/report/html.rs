@@ -2,12 +2,15 @@
 //! network): the input-vs-plan summary, the per-layer table, the plots, the
 //! machine and the command that produced it.
 
+use super::playback::Playback;
 use super::plots::Figure;
+use super::program_glb::kind_name;
+use super::snapshot::Pictures;
 use super::{layer_table, summary_rows};
 use crate::kinematics::Machine;
 use crate::plan::Plan;
 use crate::scene::PartSource;
-use crate::simulate::Simulation;
+use crate::simulate::{Problem, ProblemKind, Simulation};
 use std::fmt::Write;
 
 fn esc(s: &str) -> String {
@@ -19,7 +22,7 @@ fn esc(s: &str) -> String {
 /// The pages' style sheet.
 const STYLE: &str = "body{font-family:sans-serif;margin:2em;color:#222;max-width:1000px}table{border-collapse:collapse;margin:1em 0}\
 td,th{border:1px solid #ccc;padding:4px 10px;text-align:right}th{background:#f0f0f0}td:first-child,th:first-child{text-align:left}\
-figure{margin:1.5em 0}figcaption{font-weight:bold}pre{background:#f7f7f7;padding:1em;overflow:auto}";
+figure{margin:1.5em 0}img{max-width:100%;border:1px solid #ddd}figcaption{font-weight:bold}pre{background:#f7f7f7;padding:1em;overflow:auto}";
 
 /// What the page says about the run besides the plan.
 pub struct ReportContext<'a> {
@@ -53,13 +56,15 @@ pub fn shown_layers(layers: usize, max: usize) -> Vec<usize> {
     v
 }
 
-/// The page.
+/// The page; with `seen`, the written program's problems, their times
+/// in program.glb and the pictures.
 pub fn report_html(
     ctx: &ReportContext,
     m: &Machine,
     plan: &Plan,
     figures: &[Figure],
     seconds: f64,
+    seen: Option<&Seen>,
 ) -> String {
     let mut h = page_start("report", "Motion plan", ctx);
     let _ = writeln!(
@@ -91,6 +96,10 @@ pub fn report_html(
         );
     }
     let _ = writeln!(h, "</table>");
+    if let Some(seen) = seen {
+        pictures_section(&mut h, seen.pictures);
+        problems_table(&mut h, seen.playback.problems, Some(seen.playback));
+    }
     plots_section(
         &mut h,
         figures,
@@ -99,13 +108,24 @@ pub fn report_html(
     page_end(h, m, ctx.command)
 }
 
-/// The page of a simulation: its numbers, its problems at their lines,
-/// the plots, the machine and the command.
+/// What the page shows of a program running: each problem's time in
+/// `program.glb` and the pictures.
+pub struct Seen<'a> {
+    /// The program's timing.
+    pub playback: &'a Playback<'a>,
+    /// The pictures.
+    pub pictures: &'a Pictures,
+}
+
+/// The page of a simulation: its numbers, its problems at their lines
+/// (with `seen`, their times in program.glb and pictures), the plots, the
+/// machine and the command.
 pub fn simulation_html(
     ctx: &ReportContext,
     m: &Machine,
     sim: &Simulation,
     figures: &[Figure],
+    seen: Option<&Seen>,
 ) -> String {
     let mut h = page_start("simulation", "Simulation", ctx);
     warnings_section(&mut h, &super::warnings(ctx.part, &[]));
@@ -121,25 +141,89 @@ pub fn simulation_html(
         }
     }
     let _ = writeln!(h, "</table>");
+    if let Some(seen) = seen {
+        pictures_section(&mut h, seen.pictures);
+    }
+    problems_table(&mut h, &sim.problems, seen.map(|s| s.playback));
+    plots_section(&mut h, figures, "every line's axes are in moves.csv");
+    page_end(h, m, ctx.command)
+}
+
+/// Every problem (the first 500) with its line, value, layer and, with
+/// `playback`, the time in program.glb at which its line ends.
+fn problems_table(h: &mut String, problems: &[Problem], playback: Option<&Playback>) {
     let _ = writeln!(
         h,
-        "<h2>Problems</h2><p>{} in all{}.</p><table id=\"problems\"><tr><th>line</th><th>problem</th><th>value</th><th>layer</th></tr>",
-        sim.problems.len(),
-        if sim.problems.len() > 500 { "; the first 500 here, every one in report.json" } else { "" }
+        "<h2>Problems</h2><p>{} in all{}.</p><table id=\"problems\"><tr><th>line</th><th>problem</th><th>value</th><th>layer</th><th>time in program.glb (s)</th></tr>",
+        problems.len(),
+        if problems.len() > 500 { "; the first 500 here, every one in report.json" } else { "" }
     );
-    for p in sim.problems.iter().take(500) {
+    for p in problems.iter().take(500) {
+        let time = playback
+            .and_then(|pb| pb.time_of_line(p.line))
+            .map_or(String::new(), |t| format!("{t:.3}"));
         let _ = writeln!(
             h,
-            "<tr><td>{}</td><td>{:?}</td><td>{:.4}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{:.4}</td><td>{}</td><td>{time}</td></tr>",
             p.line,
-            p.kind,
+            kind_name(p.kind),
             p.value,
             p.layer.map_or(String::new(), |l| l.to_string())
         );
     }
     let _ = writeln!(h, "</table>");
-    plots_section(&mut h, figures, "every line's axes are in moves.csv");
-    page_end(h, m, ctx.command)
+}
+
+/// The pictures: the overview, then the first lines of each problem kind
+/// with the time at which program.glb shows them.
+fn pictures_section(h: &mut String, pictures: &Pictures) {
+    let _ = writeln!(h, "<h2>The program, seen</h2>");
+    if let Some(why) = &pictures.missing {
+        let _ = writeln!(h, "<p id=\"no-pictures\">No pictures: {}.</p>", esc(why));
+        return;
+    }
+    let _ = writeln!(
+        h,
+        "<p>program.glb plays the program in its own time (open it in any glTF viewer: Blender, a three.js viewer); each picture gives the time of its line. Colours: printing blue, travel grey, collision red, tip deviation orange, tip speed yellow, swing purple, blob brown, long travel turn teal; in the pictures the part's triangles within the margin of the head are magenta, the head's cyan. Rendered on {}.</p>",
+        esc(&pictures.adapter)
+    );
+    if let Some(png) = &pictures.overview {
+        let _ = writeln!(
+            h,
+            "<figure id=\"overview\"><figcaption>The toolpath, coloured by what each line does</figcaption>{}</figure>",
+            img(png, "the whole toolpath")
+        );
+    }
+    for p in &pictures.problems {
+        let _ = writeln!(
+            h,
+            "<figure class=\"problem\" id=\"{}-{}\" data-line=\"{}\" data-time=\"{:.3}\"><figcaption>{} at line {} (value {:.4}): {:.3} s into program.glb{}</figcaption>{}</figure>",
+            kind_name(p.kind).replace(' ', "-"),
+            p.line,
+            p.line,
+            p.time_s,
+            kind_name(p.kind),
+            p.line,
+            p.value,
+            p.time_s,
+            if p.kind == ProblemKind::Collision {
+                format!("; {} part triangles within the margin", p.highlighted)
+            } else {
+                String::new()
+            },
+            img(&p.png, &format!("the machine at line {}", p.line))
+        );
+    }
+}
+
+/// A PNG inline.
+fn img(png: &[u8], alt: &str) -> String {
+    use base64::Engine;
+    format!(
+        "<img alt=\"{}\" src=\"data:image/png;base64,{}\">",
+        esc(alt),
+        base64::engine::general_purpose::STANDARD.encode(png)
+    )
 }
 
 /// The page up to its heading and the part model:

@@ -4,11 +4,16 @@
 //! tool; and what a program reads: the commands' JSON documents
 //! (`json.rs`) and a simulation's table of moves (`moves_csv.rs`).
 
+pub mod gltf;
 pub mod html;
 pub mod json;
 pub mod moves_csv;
+pub mod playback;
 pub mod plots;
+pub mod program_glb;
+pub mod render;
 pub mod scene_glb;
+pub mod snapshot;
 
 use crate::kinematics::Machine;
 use crate::plan::cost::CostModel;

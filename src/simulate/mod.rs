@@ -23,7 +23,7 @@ pub mod own_part;
 pub mod timeline;
 
 use crate::collide::{Backend, CollideError};
-use crate::io::gcode_read::{axes_of, GcodeMove};
+use crate::io::gcode_read::{axes_of, read_program, GcodeError, GcodeMove};
 use crate::kinematics::{Dialect, Machine};
 use crate::plan::layer_reading::NearestLayer;
 use crate::prove::{MoveSpec, Prover, Ticker};
@@ -230,4 +230,21 @@ pub fn report(
         problems,
         moves: reports,
     }
+}
+
+/// A program whose every move is already proven free (a plan's), read
+/// back from its text and measured as any program is: its moves, when
+/// it prints `toolpath`'s waypoints, and what [`report`] finds in it
+/// without checking collisions again.
+pub fn replay(
+    m: &Machine,
+    toolpath: &Toolpath,
+    gcode: &str,
+    margin: f64,
+) -> Result<(Vec<GcodeMove>, Timeline, Simulation), GcodeError> {
+    let moves = read_program(gcode, m)?;
+    let timeline = timeline(m, toolpath, &moves);
+    let unchecked = vec![None; moves.len()];
+    let sim = report(m, &moves, &timeline, &unchecked, 0, margin);
+    Ok((moves, timeline, sim))
 }
