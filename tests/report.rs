@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{default_plan, simple_curve_plan};
+use common::{default_plan, screenshot, simple_curve_plan, validate};
 use maamplan::kinematics::Machine;
 use maamplan::plan::smooth::Smoothing;
 use maamplan::plan::{Plan, PlanOptions};
@@ -15,14 +15,6 @@ use maamplan::report::scene_glb::scene_glb;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::sync::OnceLock;
-
-fn require_tools() -> bool {
-    std::env::var("MAAMPLAN_REQUIRE_TOOLS").is_ok_and(|v| v == "1")
-}
-
-fn manifest() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
 
 /// The figures of the default job's plan, drawn once.
 fn default_figures() -> &'static [Figure] {
@@ -95,25 +87,6 @@ fn simple_curve_draws_a_plot_per_layer() {
     assert_eq!(fs.len(), 20 + 2);
 }
 
-/// Run the Khronos validator on `glb`; `None` when it is not installed.
-fn validate(glb: &Path) -> Option<serde_json::Value> {
-    let script = manifest().join("tools/gltf_validate.cjs");
-    let installed = manifest()
-        .join("tools/node_modules/gltf-validator")
-        .is_dir();
-    let node = Command::new("node").arg("--version").output().is_ok();
-    if !(installed && node) {
-        assert!(!require_tools(), "MAAMPLAN_REQUIRE_TOOLS=1 but node or gltf-validator is missing (npm install --prefix tools)");
-        eprintln!("skipping: node or gltf-validator missing (run `npm install --prefix tools`)");
-        return None;
-    }
-    let out = Command::new("node").arg(script).arg(glb).output().unwrap();
-    Some(
-        serde_json::from_slice(&out.stdout)
-            .unwrap_or_else(|_| panic!("validator said: {}", String::from_utf8_lossy(&out.stdout))),
-    )
-}
-
 /// Write `name`'s scene file and run the Khronos validator on it: no
 /// errors.
 fn assert_scene_validates(name: &str, scene: &maamplan::scene::Scene, p: &Plan) {
@@ -135,17 +108,6 @@ fn default_scene_passes_the_khronos_gltf_validator() {
 fn simple_curve_scene_passes_the_khronos_gltf_validator() {
     let (job, p) = simple_curve_plan();
     assert_scene_validates("simple_curve", &job.scene, p);
-}
-
-fn chromium() -> Option<&'static str> {
-    ["chromium", "chromium-browser", "google-chrome"]
-        .into_iter()
-        .find(|b| {
-            Command::new(b)
-                .arg("--version")
-                .output()
-                .is_ok_and(|o| o.status.success())
-        })
 }
 
 /// The output folder of `maamplan plan --backend cpu -q` (the embedded
@@ -182,34 +144,9 @@ fn the_report_is_self_contained() {
 #[test]
 fn report_renders_in_headless_chromium() {
     let out = planned_report();
-    let Some(browser) = chromium() else {
-        assert!(
-            !require_tools(),
-            "MAAMPLAN_REQUIRE_TOOLS=1 but chromium is missing"
-        );
-        eprintln!("skipping the screenshot: no chromium");
+    let Some(img) = screenshot(&out.join("report.html"), 1000, 2400) else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let shot = dir.path().join("shot.png");
-    let s = Command::new(browser)
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--hide-scrollbars",
-            "--window-size=1000,2400",
-        ])
-        .arg(format!("--screenshot={}", shot.display()))
-        .arg(format!("file://{}", out.join("report.html").display()))
-        .output()
-        .unwrap();
-    assert!(
-        shot.is_file(),
-        "no screenshot: {}",
-        String::from_utf8_lossy(&s.stderr)
-    );
-    let img = image::open(&shot).unwrap().to_rgb8();
     let total = (img.width() * img.height()) as f64;
     let ink = img
         .pixels()

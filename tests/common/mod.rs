@@ -716,3 +716,81 @@ pub fn printed_part(
         material,
     }
 }
+
+/// Must the external tools (node with gltf-validator, chromium) be there?
+/// (`MAAMPLAN_REQUIRE_TOOLS=1`, as CI sets.)
+pub fn require_tools() -> bool {
+    std::env::var("MAAMPLAN_REQUIRE_TOOLS").is_ok_and(|v| v == "1")
+}
+
+/// The repository's root.
+pub fn manifest() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Run the Khronos validator on `glb`; `None` when it is not installed.
+pub fn validate(glb: &Path) -> Option<serde_json::Value> {
+    let script = manifest().join("tools/gltf_validate.cjs");
+    let installed = manifest()
+        .join("tools/node_modules/gltf-validator")
+        .is_dir();
+    let node = Command::new("node").arg("--version").output().is_ok();
+    if !(installed && node) {
+        assert!(!require_tools(), "MAAMPLAN_REQUIRE_TOOLS=1 but node or gltf-validator is missing (npm install --prefix tools)");
+        eprintln!("skipping: node or gltf-validator missing (run `npm install --prefix tools`)");
+        return None;
+    }
+    let out = Command::new("node").arg(script).arg(glb).output().unwrap();
+    Some(
+        serde_json::from_slice(&out.stdout)
+            .unwrap_or_else(|_| panic!("validator said: {}", String::from_utf8_lossy(&out.stdout))),
+    )
+}
+
+/// The first Chromium-like browser on the PATH.
+pub fn chromium() -> Option<&'static str> {
+    ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|b| {
+            Command::new(b)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+}
+
+/// A headless Chromium screenshot of `page`, `width` × `height`; `None`
+/// (saying why) when there is no browser and the tools are not required.
+pub fn screenshot(page: &Path, width: u32, height: u32) -> Option<image::RgbImage> {
+    let Some(browser) = chromium() else {
+        assert!(
+            !require_tools(),
+            "MAAMPLAN_REQUIRE_TOOLS=1 but chromium is missing"
+        );
+        eprintln!("skipping the screenshot: no chromium");
+        return None;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let shot = dir.path().join("shot.png");
+    let s = Command::new(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--no-first-run",
+        ])
+        .arg(format!("--window-size={width},{height}"))
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("file://{}", page.display()))
+        .output()
+        .unwrap();
+    assert!(
+        shot.is_file(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&s.stderr)
+    );
+    Some(image::open(&shot).unwrap().to_rgb8())
+}
