@@ -331,3 +331,44 @@ fn the_simulation_page_renders_with_its_pictures_in_chromium() {
         "no pictured collision on the page ({magenta} px)"
     );
 }
+
+/// The data set's README, "The whole machine": for axes X Y Z B C a point
+/// `p` of the cradle goes to `Ry(B) p − (X, Y, 0)`, of the table and part
+/// to `Ry(B) Rz(C) p − (X, Y, 0)`, of the head's carriage to
+/// `p + (0, 0, Z)`; of the Y carriage to `p − (X, Y, 0)`.
+#[test]
+fn the_machines_bodies_move_as_the_data_set_says() {
+    let a = Animated::load(&simulated().join("program.glb"));
+    let root = a.node("machine (mm, Z up)");
+    let program = load_program(&reference(), &Machine::default()).unwrap();
+    let pictures = pictures();
+    let (time, _) = pictures[&("collision".to_string(), COLLIDING[0])];
+    let mv = program
+        .moves
+        .iter()
+        .find(|mv| mv.line == COLLIDING[0])
+        .unwrap();
+    let [x, y, z, b, c] = mv.to.map(|v| v as f32);
+    assert!(b.abs() > 5.0, "a tilted line");
+    let (b, c) = (b.to_radians(), c.to_radians());
+    let p = Vec3::new(12.0, -7.0, 30.0);
+    let moved = |node: &str| {
+        let m = a.world(root, time as f32).inverse() * a.world(a.node(node), time as f32);
+        m.transform_point3(p)
+    };
+    let ry = Mat4::from_rotation_y(b);
+    let rz = Mat4::from_rotation_z(c);
+    let shift = Vec3::new(x, y, 0.0);
+    let expect = [
+        ("machine body 3 (Cradle)", ry.transform_point3(p) - shift),
+        ("table", (ry * rz).transform_point3(p) - shift),
+        ("machine body 4 (Head)", p + Vec3::new(0.0, 0.0, z)),
+        ("machine body 2 (Xy)", p - shift),
+        ("machine body 1 (X)", p - Vec3::new(x, 0.0, 0.0)),
+        ("machine body 0 (Base)", p),
+    ];
+    for (node, want) in expect {
+        let got = moved(node);
+        assert!((got - want).length() < 0.01, "{node}: {got} against {want}");
+    }
+}

@@ -17,6 +17,7 @@ use maamplan::report::html::{report_html, ReportContext, Seen};
 use maamplan::report::json::{
     plan_report, pretty_bytes, skipped_waypoints, PlanRun, SkippedWaypoint,
 };
+use maamplan::report::machine_bodies::machine_bodies;
 use maamplan::report::playback::Playback;
 use maamplan::report::plots::figure_files;
 use maamplan::report::program_glb::{program_glb, ProgramScene};
@@ -367,6 +368,7 @@ impl Rendered {
                     scene: &job.scene,
                     playback: &playback,
                     stamp: &stamp,
+                    bodies: &machine_bodies(machine)?,
                 };
                 let (program_glb, pictures) = rayon::join(
                     || program_glb(&program),

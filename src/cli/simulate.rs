@@ -16,6 +16,7 @@ use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions, Progress};
 use maamplan::report::html::{simulation_html, ReportContext, Seen};
 use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
+use maamplan::report::machine_bodies::machine_bodies;
 use maamplan::report::moves_csv::write_moves_csv;
 use maamplan::report::part_line;
 use maamplan::report::playback::Playback;
@@ -227,6 +228,7 @@ fn write_outputs(
             scene: shown.scene,
             playback: shown.playback,
             stamp: &|s| s,
+            bodies: &machine_bodies(machine)?,
         };
         let ((glb, pictures), figs) = rayon::join(
             || {

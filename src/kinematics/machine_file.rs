@@ -216,6 +216,64 @@ pub struct Machine {
     /// How the controller reads the program (dialect, axis letters, feed
     /// and extruder modes).
     pub post: Post,
+    /// The machine's other bodies, drawn in `program.glb` (no check
+    /// involves them). A file that leaves this out draws none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub display: Vec<DisplayBody>,
+}
+
+/// A body of the machine drawn as the program runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisplayBody {
+    /// Its mesh in the machine's home frame (all axes at 0, the tip at the
+    /// origin): a mesh file, relative to the machine file, or
+    /// `builtin:zhang2021/<name>.obj`, the data set's printer's bodies
+    /// shipped with maamplan.
+    pub mesh: String,
+    /// How it moves.
+    pub moves_with: BodyMotion,
+}
+
+/// How a [`DisplayBody`] moves with the axes. `x`, `xy` and `cradle` are
+/// the carriages of a rotary-table machine (configuration III): a point
+/// `p` goes to `p − (X, 0, 0)`, `p − (X, Y, 0)` and `R_tilt p − (X, Y, 0)`;
+/// `table` moves as the part does, `head` as the head does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BodyMotion {
+    /// Stands still.
+    Base,
+    /// The X carriage.
+    X,
+    /// The Y carriage (on the X carriage).
+    Xy,
+    /// The tilting cradle (on the Y carriage; does not turn with C).
+    Cradle,
+    /// With the part.
+    Table,
+    /// With the head.
+    Head,
+}
+
+/// Prefix of a [`DisplayBody::mesh`] shipped with maamplan.
+pub const BUILTIN: &str = "builtin:";
+
+/// The data set's printer's bodies (`datasets/zhang2021_machine/`).
+fn zhang2021_bodies() -> Vec<DisplayBody> {
+    [
+        ("base", BodyMotion::Base),
+        ("X_axis", BodyMotion::X),
+        ("Y_axis", BodyMotion::Xy),
+        ("B_axis", BodyMotion::Cradle),
+        ("Z_axis", BodyMotion::Head),
+    ]
+    .into_iter()
+    .map(|(name, moves_with)| DisplayBody {
+        mesh: format!("{BUILTIN}zhang2021/{name}.obj"),
+        moves_with,
+    })
+    .collect()
 }
 
 /// The C axis: speed, and an optional range.
@@ -311,6 +369,7 @@ impl Default for Machine {
             support: default_support(),
             travel: Travel::default(),
             post: Post::default(),
+            display: zhang2021_bodies(),
         }
     }
 }
@@ -432,6 +491,22 @@ impl Machine {
                 msg,
             });
         }
+        if self.configuration != Configuration::III {
+            if let Some(b) = self.display.iter().find(|b| {
+                matches!(
+                    b.moves_with,
+                    BodyMotion::X | BodyMotion::Xy | BodyMotion::Cradle
+                )
+            }) {
+                return bad(
+                    &["display"],
+                    &format!(
+                        "display body {}: moves_with = x, xy or cradle needs configuration III (use base, table or head)",
+                        b.mesh
+                    ),
+                );
+            }
+        }
         for (name, a) in [
             ("x", self.x),
             ("y", self.y),
@@ -504,11 +579,30 @@ pub fn load_machine(path: &Path) -> Result<Machine, MachineError> {
             msg: format!("{} (in `{at}`)", e.message().trim()),
         }
     })?;
+    let mut m = m;
     m.validate().map_err(|e| MachineError::Parse {
         path: path.to_path_buf(),
         line: line_of(&text, &e.keys),
         msg: e.msg,
     })?;
+    let folder = path.parent().unwrap_or(Path::new(""));
+    for body in &mut m.display {
+        if body.mesh.starts_with(BUILTIN) {
+            continue;
+        }
+        let file = folder.join(&body.mesh);
+        if !file.is_file() {
+            return Err(MachineError::Parse {
+                path: path.to_path_buf(),
+                line: line_of(&text, &["display".to_string()]),
+                msg: format!(
+                    "display mesh {} not found (a path relative to the machine file)",
+                    file.display()
+                ),
+            });
+        }
+        body.mesh = file.to_string_lossy().into_owned();
+    }
     Ok(m)
 }
 

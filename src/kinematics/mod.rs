@@ -23,7 +23,8 @@ pub mod machine_file;
 pub mod post;
 
 pub use machine_file::{
-    load_machine, AxisLimits, Extrusion, Machine, MachineError, ToolSettings, Travel,
+    load_machine, AxisLimits, BodyMotion, DisplayBody, Extrusion, Machine, MachineError,
+    ToolSettings, Travel,
 };
 pub use post::{Dialect, DwellUnit, ExtrusionMode, FeedMode, Interpolation, Post};
 

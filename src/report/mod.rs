@@ -7,6 +7,7 @@
 pub mod gltf;
 pub mod html;
 pub mod json;
+pub mod machine_bodies;
 pub mod moves_csv;
 pub mod playback;
 pub mod plots;

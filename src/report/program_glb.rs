@@ -15,13 +15,17 @@
 //!
 //! Size is bounded: at most [`MAX_KEYS`](super::playback::MAX_KEYS) lines
 //! kept as keys, at most [`MAX_CHUNKS`] part chunks (each within one
-//! layer) and [`MAX_MARKERS`] markers of each problem kind.
+//! layer), about [`MAX_PART_TRIANGLES`] part triangles (a larger part is
+//! simplified for the eye; the checks saw all of it) and [`MAX_MARKERS`]
+//! markers of each problem kind.
 
 use super::gltf::{quaternion, Builder, Interpolation};
 use super::playback::{LineClass, Playback};
-use crate::geometry::Mesh;
+use crate::geometry::{Mesh, V3};
 use crate::io::gcode_read::axes_of;
-use crate::kinematics::{head_rotation, linear_axes, Axes, Configuration, Machine, Rotary};
+use crate::kinematics::{
+    head_rotation, linear_axes, Axes, BodyMotion, Configuration, Machine, Rotary,
+};
 use crate::scene::Scene;
 use crate::simulate::ProblemKind;
 use serde_json::json;
@@ -31,6 +35,13 @@ pub const MAX_CHUNKS: usize = 4000;
 
 /// Fewest triangles a part chunk holds, unless its layer has fewer.
 pub const MIN_CHUNK_TRIANGLES: usize = 1000;
+
+/// Most part triangles shown: a larger part is simplified to about this
+/// many, each chunk on its own.
+pub const MAX_PART_TRIANGLES: usize = 1_000_000;
+
+/// The simplifier's error bound, relative to a chunk's extent.
+const SIMPLIFY_ERROR: f32 = 0.02;
 
 /// Most markers of one problem kind.
 pub const MAX_MARKERS: usize = 200;
@@ -101,6 +112,8 @@ pub struct ProgramScene<'a> {
     /// A scene stamp in the playback's numbering (identity where the scene
     /// was re-stamped in print order).
     pub stamp: &'a (dyn Fn(u32) -> u32 + Sync),
+    /// The machine's other bodies ([`super::machine_bodies`]).
+    pub bodies: &'a [(BodyMotion, Mesh)],
 }
 
 /// One key of the animation: a time and the machine's axes then.
@@ -118,6 +131,7 @@ pub fn program_glb(s: &ProgramScene) -> Vec<u8> {
     let keys = keys(s);
     let rig = rig(&mut b, s.machine);
     animate(&mut b, &rig, s.machine, &keys);
+    bodies(&mut b, &rig, s.bodies);
     part(&mut b, rig.part, s);
     head(&mut b, rig.head, s.scene);
     toolpath(&mut b, rig.part, s, &keys);
@@ -202,6 +216,8 @@ fn push_key(keys: &mut Vec<Key>, k: Key) {
 
 /// The animated nodes.
 struct Rig {
+    /// The root (the machine's base).
+    root: usize,
     /// Moves as the axes say, in order: X, Y, cradle, table (for a
     /// rotary table); empty for a machine shown in the part frame.
     axes: Vec<usize>,
@@ -225,6 +241,7 @@ fn rig(b: &mut Builder, m: &Machine) -> Rig {
         let part = b.node(json!({"name": "part frame"}));
         b.child(root, part);
         return Rig {
+            root,
             axes: Vec::new(),
             part,
             head,
@@ -239,9 +256,34 @@ fn rig(b: &mut Builder, m: &Machine) -> Rig {
         parent = n;
     }
     Rig {
+        root,
         axes: chain,
         part: parent,
         head,
+    }
+}
+
+/// The machine's other bodies, each on the node that moves as it does.
+fn bodies(b: &mut Builder, rig: &Rig, bodies: &[(BodyMotion, Mesh)]) {
+    if bodies.is_empty() {
+        return;
+    }
+    let mat = b.material("machine", [0.62, 0.66, 0.72, 0.45], false);
+    for (k, (motion, mesh)) in bodies.iter().enumerate() {
+        let parent = match (motion, rig.axes.as_slice()) {
+            (BodyMotion::Base, _) => rig.root,
+            (BodyMotion::Head, _) => rig.head,
+            (BodyMotion::Table, _) => rig.part,
+            (BodyMotion::X, [x, ..]) => *x,
+            (BodyMotion::Xy, [_, y, ..]) => *y,
+            (BodyMotion::Cradle, [_, _, cradle, _]) => *cradle,
+            // Validated away: such bodies belong to a rotary table.
+            _ => rig.root,
+        };
+        let all: Vec<usize> = (0..mesh.triangles.len()).collect();
+        let m = mesh_node(b, mesh, &all, 1.0, mat);
+        let n = b.node(json!({"name": format!("machine body {k} ({motion:?})"), "mesh": m}));
+        b.child(parent, n);
     }
 }
 
@@ -323,6 +365,7 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
     ];
     let total: usize = s.scene.groups.iter().map(|g| g.mesh.triangles.len()).sum();
     let chunk_size = (total / MAX_CHUNKS + 1).max(MIN_CHUNK_TRIANGLES);
+    let keep = (MAX_PART_TRIANGLES as f64 / total.max(1) as f64).min(1.0);
     let p = s.playback;
     for g in &s.scene.groups {
         let Some(layer) = g.layer else {
@@ -330,6 +373,7 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
                 b,
                 &g.mesh,
                 &(0..g.mesh.triangles.len()).collect::<Vec<_>>(),
+                1.0,
                 platform_mat,
             );
             let n = b.node(json!({"name": "platform", "mesh": mesh}));
@@ -344,7 +388,7 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
         for (k, chunk) in order.chunks(chunk_size).enumerate() {
             let tris: Vec<usize> = chunk.iter().map(|&(_, t)| t).collect();
             let after = chunk.last().expect("a chunk is not empty").0;
-            let mesh = mesh_node(b, &g.mesh, &tris, layer_mats[layer % 2]);
+            let mesh = mesh_node(b, &g.mesh, &tris, keep, layer_mats[layer % 2]);
             let time = p.ends[after] as f32;
             let n = b.node(json!({
                 "name": format!("layer {layer} part {k}"),
@@ -360,20 +404,14 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
     }
 }
 
-/// A mesh of triangles `tris` of `m` (vertices compacted): its index.
-fn mesh_node(b: &mut Builder, m: &Mesh, tris: &[usize], material: usize) -> usize {
-    let mut map = vec![u32::MAX; m.vertices.len()];
-    let mut vertices = Vec::new();
-    let mut triangles = Vec::with_capacity(tris.len());
-    for &t in tris {
-        triangles.push(m.triangles[t].map(|v| {
-            let v = v as usize;
-            if map[v] == u32::MAX {
-                map[v] = vertices.len() as u32;
-                vertices.push(m.vertices[v]);
-            }
-            map[v]
-        }));
+/// A mesh of triangles `tris` of `m` (vertices compacted), simplified to
+/// about `keep` of its triangles when `keep < 1`: its index.
+fn mesh_node(b: &mut Builder, m: &Mesh, tris: &[usize], keep: f64, material: usize) -> usize {
+    let (vertices, mut triangles) = compact(&m.vertices, tris.iter().map(|&t| m.triangles[t]));
+    let mut vertices = vertices;
+    if keep < 1.0 && triangles.len() > 8 {
+        let simpler = simplified(&vertices, &triangles, keep);
+        (vertices, triangles) = compact(&vertices, simpler.into_iter());
     }
     let pos = b.positions(&vertices);
     let idx = b.triangles(&triangles);
@@ -383,11 +421,52 @@ fn mesh_node(b: &mut Builder, m: &Mesh, tris: &[usize], material: usize) -> usiz
     )
 }
 
+/// The vertices `triangles` use, renumbered in order of first use.
+fn compact(vertices: &[V3], triangles: impl Iterator<Item = [u32; 3]>) -> (Vec<V3>, Vec<[u32; 3]>) {
+    let mut map = vec![u32::MAX; vertices.len()];
+    let mut used = Vec::new();
+    let tris = triangles
+        .map(|t| {
+            t.map(|v| {
+                let v = v as usize;
+                if map[v] == u32::MAX {
+                    map[v] = used.len() as u32;
+                    used.push(vertices[v]);
+                }
+                map[v]
+            })
+        })
+        .collect();
+    (used, tris)
+}
+
+/// About `keep` of `triangles` covering the same surface (meshoptimizer,
+/// borders kept so neighbouring chunks still meet; where that cannot get
+/// near the count, its sloppy simplifier).
+fn simplified(vertices: &[V3], triangles: &[[u32; 3]], keep: f64) -> Vec<[u32; 3]> {
+    let target = ((triangles.len() as f64 * keep).ceil() as usize).max(1) * 3;
+    let adapter = meshopt::VertexDataAdapter::new(bytemuck::cast_slice(vertices), 12, 0)
+        .expect("positions are 12-byte vertices");
+    let indices = triangles.as_flattened();
+    let mut out = meshopt::simplify(
+        indices,
+        &adapter,
+        target,
+        SIMPLIFY_ERROR,
+        meshopt::SimplifyOptions::LockBorder,
+        None,
+    );
+    if out.len() > 2 * target {
+        out = meshopt::simplify_sloppy(indices, &adapter, target, SIMPLIFY_ERROR, None);
+    }
+    out.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect()
+}
+
 /// The head's mesh on its node.
 fn head(b: &mut Builder, node: usize, scene: &Scene) {
     let mat = b.material("head", [0.30, 0.30, 0.35, 1.0], false);
     let m = &scene.head.mesh;
-    let mesh = mesh_node(b, m, &(0..m.triangles.len()).collect::<Vec<_>>(), mat);
+    let mesh = mesh_node(b, m, &(0..m.triangles.len()).collect::<Vec<_>>(), 1.0, mat);
     let n = b.node(json!({"name": "head mesh", "mesh": mesh}));
     b.child(node, n);
 }
@@ -501,7 +580,7 @@ fn markers(b: &mut Builder, parent: usize, s: &ProgramScene) {
             problem_color(kind),
             true,
         );
-        let mesh = mesh_node(b, &octahedron, &(0..8).collect::<Vec<_>>(), mat);
+        let mesh = mesh_node(b, &octahedron, &(0..8).collect::<Vec<_>>(), 1.0, mat);
         for q in of {
             let Some(i) = p.index_of_line(q.line) else {
                 continue;
