@@ -65,11 +65,14 @@ fn pictures() -> HashMap<(String, usize), (f64, Vec<u8>)> {
     out
 }
 
+/// One animated property: does it step, its key times and values.
+type Channel = (bool, Vec<f32>, Vec<Vec<f32>>);
+
 /// The animation of a glTF file, evaluated by hand.
 struct Animated {
     doc: gltf::Document,
-    /// Per node and property: (interpolation is step, key times, values).
-    channels: HashMap<(usize, &'static str), (bool, Vec<f32>, Vec<Vec<f32>>)>,
+    /// Per node and property.
+    channels: HashMap<(usize, &'static str), Channel>,
     parent: HashMap<usize, usize>,
 }
 
@@ -371,4 +374,30 @@ fn the_machines_bodies_move_as_the_data_set_says() {
         let got = moved(node);
         assert!((got - want).length() < 0.01, "{node}: {got} against {want}");
     }
+}
+
+/// Without a GPU adapter the page says why it has no pictures, and the
+/// scene is written all the same.
+#[test]
+fn without_an_adapter_the_page_says_so_and_the_scene_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out");
+    let o = common::maamplan()
+        // No Metal adapter on Linux, nor any other when only Metal is asked.
+        .env("WGPU_BACKEND", "metal")
+        .args([
+            "plan",
+            "--backend",
+            "cpu",
+            "-q",
+            "-o",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    common::assert_success(&o);
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    assert!(html.contains("id=\"no-pictures\""), "the page has pictures");
+    assert!(!html.contains("data:image/png"));
+    assert!(out.join("program.glb").is_file());
 }

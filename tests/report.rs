@@ -13,7 +13,6 @@ use maamplan::plan::{Plan, PlanOptions};
 use maamplan::report::plots::{figures, Figure};
 use maamplan::report::scene_glb::scene_glb;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::OnceLock;
 
 /// The figures of the default job's plan, drawn once.

@@ -221,17 +221,8 @@ pub fn run(a: PlanArgs) -> Result<()> {
         command: &command,
         flipped_layers: &flipped,
     };
-    let margin = a.run.margin.unwrap_or(machine.margin);
-    let rendered = Rendered::new(
-        &machine,
-        &p,
-        &job,
-        &context,
-        seconds,
-        !a.no_plots,
-        margin,
-        &show,
-    )?;
+    let report_margin = (!a.no_plots).then(|| a.run.margin.unwrap_or(machine.margin));
+    let rendered = Rendered::new(&machine, &p, &job, &context, seconds, report_margin, &show)?;
     stages.extend(rendered.stages.iter().cloned());
     let report = plan_report(
         &machine,
@@ -315,15 +306,15 @@ struct ReportFiles {
 impl Rendered {
     /// Render the outputs of plan `p`; the program and the report are
     /// independent and rendered side by side, as are the figures and the
-    /// scene.
+    /// scene; the program is then watched (with `report_margin`, the
+    /// margin its pictures check at; `None`: no report).
     fn new(
         machine: &Machine,
         p: &Plan,
         job: &LoadedJob,
         context: &ReportContext,
         seconds: f64,
-        plots: bool,
-        margin: f64,
+        report_margin: Option<f64>,
         show: &Reporter,
     ) -> Result<Self> {
         let header = GcodeHeader {
@@ -340,13 +331,13 @@ impl Rendered {
                 (gcode, csv, t.elapsed().as_secs_f64())
             },
             || {
-                plots.then(|| {
+                report_margin.map(|margin| {
                     let t = Instant::now();
                     let (figures, glb) = rayon::join(
                         || figure_files(machine, p),
                         || scene_glb(&job.scene, p, machine),
                     );
-                    (figures, glb, t)
+                    (figures, glb, margin, t)
                 })
             },
         );
@@ -355,30 +346,13 @@ impl Rendered {
         let mut stages = vec![("write".to_string(), write_s)];
         let report = match drawn {
             None => None,
-            Some((figures, glb, t)) => {
+            Some((figures, glb, margin, t)) => {
                 show.begin("report");
                 let (figures, plots) =
                     figures.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-                let (moves, timeline, sim) = replay(machine, &job.toolpath, &gcode, margin)
-                    .map_err(|e| anyhow::anyhow!("reading the written program back: {e}"))?;
-                let playback = Playback::new(&moves, &sim, &timeline);
-                let stamp = |s: u32| if s == 0 { 0 } else { timeline.stamp(s) };
-                let program = ProgramScene {
-                    machine,
-                    scene: &job.scene,
-                    playback: &playback,
-                    stamp: &stamp,
-                    bodies: &machine_bodies(machine)?,
-                };
-                let (program_glb, pictures) = rayon::join(
-                    || program_glb(&program),
-                    || pictures(&program, margin as f32),
-                );
-                let seen = Seen {
-                    playback: &playback,
-                    pictures: &pictures,
-                };
-                let html = report_html(context, machine, p, &figures, seconds, Some(&seen));
+                let (program_glb, html) = watched(machine, job, &gcode, margin, |seen| {
+                    report_html(context, machine, p, &figures, seconds, Some(seen))
+                })?;
                 let report_s = t.elapsed().as_secs_f64();
                 show.stage_line("report", report_s, None);
                 stages.push(("report".to_string(), report_s));
@@ -414,6 +388,37 @@ impl Rendered {
         }
         files
     }
+}
+
+/// The written program read back and watched: `program.glb`, and the page
+/// `page` makes with the problems' times and pictures.
+fn watched(
+    machine: &Machine,
+    job: &LoadedJob,
+    gcode: &str,
+    margin: f64,
+    page: impl FnOnce(&Seen) -> String,
+) -> Result<(Vec<u8>, String)> {
+    let (moves, timeline, sim) = replay(machine, &job.toolpath, gcode, margin)
+        .map_err(|e| anyhow::anyhow!("reading the written program back: {e}"))?;
+    let playback = Playback::new(&moves, &sim, &timeline);
+    let stamp = |s: u32| if s == 0 { 0 } else { timeline.stamp(s) };
+    let program = ProgramScene {
+        machine,
+        scene: &job.scene,
+        playback: &playback,
+        stamp: &stamp,
+        bodies: &machine_bodies(machine)?,
+    };
+    let (glb, pictures) = rayon::join(
+        || program_glb(&program),
+        || pictures(&program, margin as f32),
+    );
+    let html = page(&Seen {
+        playback: &playback,
+        pictures: &pictures,
+    });
+    Ok((glb, html))
 }
 
 /// Everything `plan` may write into its output folder: a run replaces

@@ -491,22 +491,7 @@ impl Machine {
                 msg,
             });
         }
-        if self.configuration != Configuration::III {
-            if let Some(b) = self.display.iter().find(|b| {
-                matches!(
-                    b.moves_with,
-                    BodyMotion::X | BodyMotion::Xy | BodyMotion::Cradle
-                )
-            }) {
-                return bad(
-                    &["display"],
-                    &format!(
-                        "display body {}: moves_with = x, xy or cradle needs configuration III (use base, table or head)",
-                        b.mesh
-                    ),
-                );
-            }
-        }
+        self.validate_display()?;
         for (name, a) in [
             ("x", self.x),
             ("y", self.y),
@@ -519,6 +504,31 @@ impl Machine {
             }
         }
         Ok(())
+    }
+}
+
+impl Machine {
+    /// The carriages of a rotary table (x, xy, cradle) only on one.
+    fn validate_display(&self) -> Result<(), Invalid> {
+        if self.configuration == Configuration::III {
+            return Ok(());
+        }
+        let carriage = |b: &&DisplayBody| {
+            matches!(
+                b.moves_with,
+                BodyMotion::X | BodyMotion::Xy | BodyMotion::Cradle
+            )
+        };
+        match self.display.iter().find(carriage) {
+            None => Ok(()),
+            Some(b) => Err(Invalid {
+                keys: vec!["display".into()],
+                msg: format!(
+                    "display body {}: moves_with = x, xy or cradle needs configuration III (use base, table or head)",
+                    b.mesh
+                ),
+            }),
+        }
     }
 }
 
@@ -714,7 +724,13 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("m.toml");
         std::fs::write(&p, "").unwrap();
-        assert_eq!(load_machine(&p).unwrap(), Machine::default());
+        // All but the drawn bodies: a file's machine is not the data set's
+        // printer unless it says so.
+        let drawn_none = Machine {
+            display: Vec::new(),
+            ..Machine::default()
+        };
+        assert_eq!(load_machine(&p).unwrap(), drawn_none);
         let text = "[tilt]\nmin = -60.0\n[extrusion]\nwidth = 0.5\n[support]\ntool = 3\n[c]\nrange = [-360.0, 360.0]\n";
         std::fs::write(&p, text).unwrap();
         let m = load_machine(&p).unwrap();

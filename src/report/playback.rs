@@ -150,3 +150,138 @@ impl<'a> Playback<'a> {
 pub fn turn_deg(m: &GcodeMove) -> f64 {
     (m.to[3] - m.from[3]).abs() + (m.to[4] - m.from[4]).abs()
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::simulate::{MoveReport, Simulation, Summary};
+
+    fn program(n: usize) -> (Vec<GcodeMove>, Simulation, Timeline) {
+        let moves: Vec<GcodeMove> = (0..n)
+            .map(|i| GcodeMove {
+                line: 10 + 2 * i,
+                linear: true,
+                from: [i as f64, 0.0, 0.0, 0.0, 0.0],
+                to: [
+                    i as f64 + 1.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    if i == 7 { 30.0 } else { 0.0 },
+                ],
+                e: 0.0,
+                de: if i % 5 == 4 { 0.0 } else { 0.1 },
+                f: 600.0,
+                inverse_time: false,
+                tcp: false,
+                tool: 0,
+                dwell: 0.0,
+            })
+            .collect();
+        let reports = moves
+            .iter()
+            .map(|mv| MoveReport {
+                line: mv.line,
+                extrudes: mv.extrudes(),
+                tcp: false,
+                layer: Some(0),
+                seconds: 0.5,
+                length_mm: 1.0,
+                tip_speed: 2.0,
+                deviation_mm: 0.0,
+                rotary_step_deg: 0.0,
+                tilt_deg: 0.0,
+                c_deg: 0.0,
+                e_per_mm: 0.1,
+                collides: false,
+            })
+            .collect();
+        let problems = vec![
+            Problem {
+                line: 14,
+                kind: ProblemKind::Blob,
+                value: 1.0,
+                layer: Some(0),
+            },
+            Problem {
+                line: 14,
+                kind: ProblemKind::Collision,
+                value: 0.0,
+                layer: Some(0),
+            },
+        ];
+        // Extruding lines leave out the bead they lay; others count all.
+        let mut count = 0;
+        let cutoffs = moves
+            .iter()
+            .map(|mv| {
+                if mv.extrudes() {
+                    count += 1;
+                    count - 1
+                } else {
+                    count + 1
+                }
+            })
+            .collect();
+        let sim = Simulation {
+            summary: Summary::default(),
+            problems,
+            moves: reports,
+        };
+        let timeline = Timeline {
+            printed: Vec::new(),
+            cutoffs,
+            layers: vec![Some(0); n],
+        };
+        (moves, sim, timeline)
+    }
+
+    #[test]
+    fn lines_end_at_the_sum_of_their_durations() {
+        let (moves, sim, timeline) = program(10);
+        let p = Playback::new(&moves, &sim, &timeline);
+        assert_eq!(p.ends[0], 0.5);
+        assert_eq!(p.duration(), 5.0);
+        assert_eq!(p.time_of_line(14), Some(1.5));
+        assert_eq!(p.time_of_line(15), None);
+    }
+
+    #[test]
+    fn material_once_there_stays_and_all_is_there_at_the_end() {
+        let (moves, sim, timeline) = program(10);
+        let p = Playback::new(&moves, &sim, &timeline);
+        assert!(p.present_after.windows(2).all(|w| w[0] <= w[1]));
+        for (i, &c) in p.present_after.iter().enumerate() {
+            assert!(c >= timeline.cutoffs[i]);
+        }
+        assert_eq!(p.appears_after(0), Some(0));
+        assert_eq!(p.appears_after(u32::MAX), None);
+        // A stamp first present during move i appears after a move before it.
+        let during = timeline.cutoffs.iter().position(|&c| c > 5).unwrap();
+        assert!(p.appears_after(5).unwrap() < during.max(1));
+    }
+
+    #[test]
+    fn a_line_takes_its_worst_problem() {
+        let (moves, sim, timeline) = program(10);
+        let p = Playback::new(&moves, &sim, &timeline);
+        assert_eq!(p.classes[2], LineClass::Problem(ProblemKind::Collision));
+        assert_eq!(p.classes[4], LineClass::Travel);
+        assert_eq!(p.classes[0], LineClass::Printing);
+    }
+
+    #[test]
+    fn a_long_program_keeps_every_kth_line_its_problems_and_its_turns() {
+        let n = 3 * MAX_KEYS + 10;
+        let (moves, sim, timeline) = program(n);
+        let p = Playback::new(&moves, &sim, &timeline);
+        let kept = p.kept();
+        assert!(kept.len() <= n / 4 + 10, "{}", kept.len());
+        for must in [2, 7, n - 1] {
+            assert!(kept.contains(&must), "{must}");
+        }
+        assert!(kept.windows(2).all(|w| w[0] < w[1]));
+        let (short, sim, timeline) = program(50);
+        assert_eq!(Playback::new(&short, &sim, &timeline).kept().len(), 50);
+    }
+}

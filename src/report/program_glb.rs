@@ -128,7 +128,7 @@ struct Key {
 /// The GLB bytes.
 pub fn program_glb(s: &ProgramScene) -> Vec<u8> {
     let mut b = Builder::default();
-    let keys = keys(s);
+    let keys = keys(s.machine, s.playback);
     let rig = rig(&mut b, s.machine);
     animate(&mut b, &rig, s.machine, &keys);
     bodies(&mut b, &rig, s.bodies);
@@ -141,9 +141,7 @@ pub fn program_glb(s: &ProgramScene) -> Vec<u8> {
 
 /// The animation's keys: the first line's start at 0, then each kept
 /// line's end, with keys inside lines whose path straight keys would miss.
-fn keys(s: &ProgramScene) -> Vec<Key> {
-    let p = s.playback;
-    let m = s.machine;
+fn keys(m: &Machine, p: &Playback) -> Vec<Key> {
     let Some(first) = p.moves.first() else {
         return Vec::new();
     };
@@ -593,6 +591,136 @@ fn markers(b: &mut Builder, parent: usize, s: &ProgramScene) {
                 "extras": {"line": q.line, "kind": kind_name(kind), "value": q.value, "time_s": p.ends[i]},
             }));
             b.child(parent, n);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::gcode_read::GcodeMove;
+    use crate::simulate::{MoveReport, Simulation, Timeline};
+
+    /// A line from `a` to `b` (`[X, Y, Z, tilt°, C°]`) lasting `seconds`.
+    fn line(n: usize, a: [f64; 5], b: [f64; 5], tcp: bool) -> GcodeMove {
+        GcodeMove {
+            line: n,
+            linear: true,
+            from: a,
+            to: b,
+            e: 0.0,
+            de: 0.1,
+            f: 600.0,
+            inverse_time: false,
+            tcp,
+            tool: 0,
+            dwell: 0.0,
+        }
+    }
+
+    fn measured(moves: &[GcodeMove], seconds: &[f64]) -> (Simulation, Timeline) {
+        let reports = moves
+            .iter()
+            .zip(seconds)
+            .map(|(mv, &s)| MoveReport {
+                line: mv.line,
+                extrudes: true,
+                tcp: mv.tcp,
+                layer: Some(0),
+                seconds: s,
+                length_mm: 1.0,
+                tip_speed: 1.0,
+                deviation_mm: 0.0,
+                rotary_step_deg: 0.0,
+                tilt_deg: mv.to[3],
+                c_deg: mv.to[4],
+                e_per_mm: 0.1,
+                collides: false,
+            })
+            .collect();
+        let sim = Simulation {
+            summary: Default::default(),
+            problems: Vec::new(),
+            moves: reports,
+        };
+        let timeline = Timeline {
+            printed: Vec::new(),
+            cutoffs: (0..moves.len() as u32).collect(),
+            layers: vec![Some(0); moves.len()],
+        };
+        (sim, timeline)
+    }
+
+    #[test]
+    fn a_big_turn_gets_keys_inside_its_line_and_times_strictly_increase() {
+        let m = Machine::default();
+        let moves = [
+            line(
+                1,
+                [0.0, 0.0, 10.0, 0.0, 0.0],
+                [5.0, 0.0, 10.0, 0.0, 0.0],
+                false,
+            ),
+            // Half a turn of C under joint interpolation: 3 pieces of 60°.
+            line(
+                2,
+                [5.0, 0.0, 10.0, 0.0, 0.0],
+                [5.0, 0.0, 10.0, 0.0, 180.0],
+                false,
+            ),
+            // A line of no duration ends where the one before does.
+            line(
+                3,
+                [5.0, 0.0, 10.0, 0.0, 180.0],
+                [5.0, 0.0, 10.0, 0.0, 180.0],
+                false,
+            ),
+        ];
+        let (sim, timeline) = measured(&moves, &[1.0, 6.0, 0.0]);
+        let p = Playback::new(&moves, &sim, &timeline);
+        let keys = keys(&m, &p);
+        let times: Vec<f32> = keys.iter().map(|k| k.time).collect();
+        assert_eq!(times, vec![0.0, 1.0, 3.0, 5.0, 7.0]);
+        assert!((keys[2].axes.c.to_degrees() - 60.0).abs() < 1e-9);
+        assert_eq!(keys.last().unwrap().mv, 2);
+    }
+
+    #[test]
+    fn a_tool_centre_point_line_keeps_its_tip_on_the_chord() {
+        let m = Machine::default();
+        let a = m.axes_at([10.0, 0.0, 5.0], (0.0, 0.0));
+        let b = m.axes_at([20.0, 0.0, 5.0], (0.5, 0.6));
+        let deg = |x: &Axes| {
+            [
+                x.xyz[0],
+                x.xyz[1],
+                x.xyz[2],
+                x.tilt.to_degrees(),
+                x.c.to_degrees(),
+            ]
+        };
+        let moves = [line(1, deg(&a), deg(&b), true)];
+        let (sim, timeline) = measured(&moves, &[2.0]);
+        let p = Playback::new(&moves, &sim, &timeline);
+        let keys = keys(&m, &p);
+        // 0.5 rad of tilt and 0.6 of C: 35° at most 5° a key.
+        assert_eq!(keys.len(), 1 + 7);
+        for k in &keys {
+            let tip = m.tip(&k.axes);
+            // Within the written axes' rounding.
+            assert!(
+                tip[1].abs() < 1e-3 && (tip[2] - 5.0).abs() < 1e-3,
+                "{tip:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn rotations_take_the_short_way_between_keys() {
+        let q = continuous((0..8).map(|k| about(2, k as f64 * 1.2)).collect());
+        for w in q.windows(2) {
+            let dot: f32 = (0..4).map(|i| w[0][i] * w[1][i]).sum();
+            assert!(dot > 0.0);
         }
     }
 }

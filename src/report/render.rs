@@ -200,56 +200,82 @@ impl Renderer {
     }
 
     /// `list` seen by `camera`, `width` × `height` pixels (width a
-    /// multiple of 64), as RGBA rows top to bottom.
-    pub fn draw(&self, list: &DrawList, camera: &Camera, width: u32, height: u32) -> Vec<u8> {
-        let device = &self.ctx.device;
+    /// multiple of 64), as RGBA rows top to bottom; `Err` says why the
+    /// device gave none.
+    pub fn draw(
+        &self,
+        list: &DrawList,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+    ) -> Result<Vec<u8>, String> {
         let size = wgpu::Extent3d {
             width,
             height,
             depth_or_array_layers: 1,
         };
-        let texture = |format, samples, usage| {
-            device
-                .create_texture(&wgpu::TextureDescriptor {
-                    label: None,
-                    size,
-                    mip_level_count: 1,
-                    sample_count: samples,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-                .create_view(&Default::default())
-        };
-        let attach = wgpu::TextureUsages::RENDER_ATTACHMENT;
-        let msaa = texture(FORMAT, SAMPLES, attach);
-        let depth = texture(wgpu::TextureFormat::Depth32Float, SAMPLES, attach);
-        let resolved = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("picture"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: FORMAT,
-            usage: attach | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let resolved_view = resolved.create_view(&Default::default());
-        let vp = camera.view_proj(width as f32 / height as f32);
+        let target = self.texture(size, FORMAT, 1, wgpu::TextureUsages::COPY_SRC);
         let uniform = ViewUniform {
-            view_proj: vp.to_cols_array_2d(),
+            view_proj: camera
+                .view_proj(width as f32 / height as f32)
+                .to_cols_array_2d(),
             eye: camera.eye.extend(1.0).to_array(),
         };
-        let ubuf = self.buffer(bytemuck::bytes_of(&uniform), wgpu::BufferUsages::UNIFORM);
-        let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        let mut enc = self.ctx.device.create_command_encoder(&Default::default());
+        self.pass(&mut enc, list, &uniform, &target, size);
+        self.read_back(enc, &target, size)
+    }
+
+    /// A 2-D texture `size` of `format` for attachment (and `usage`).
+    fn texture(
+        &self,
+        size: wgpu::Extent3d,
+        format: wgpu::TextureFormat,
+        samples: u32,
+        usage: wgpu::TextureUsages,
+    ) -> wgpu::Texture {
+        self.ctx.device.create_texture(&wgpu::TextureDescriptor {
             label: None,
-            layout: &self.layout,
-            entries: &[wgpu::BindGroupEntry {
-                binding: 0,
-                resource: ubuf.as_entire_binding(),
-            }],
-        });
+            size,
+            mip_level_count: 1,
+            sample_count: samples,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | usage,
+            view_formats: &[],
+        })
+    }
+
+    /// Record the render pass drawing `list` into `target` (multisampled,
+    /// then resolved): lit triangles, lines, then the overlay.
+    fn pass(
+        &self,
+        enc: &mut wgpu::CommandEncoder,
+        list: &DrawList,
+        uniform: &ViewUniform,
+        target: &wgpu::Texture,
+        size: wgpu::Extent3d,
+    ) {
+        let none = wgpu::TextureUsages::empty();
+        let msaa = self.texture(size, FORMAT, SAMPLES, none);
+        let depth = self.texture(size, wgpu::TextureFormat::Depth32Float, SAMPLES, none);
+        let (msaa, depth) = (
+            msaa.create_view(&Default::default()),
+            depth.create_view(&Default::default()),
+        );
+        let resolved = target.create_view(&Default::default());
+        let ubuf = self.buffer(bytemuck::bytes_of(uniform), wgpu::BufferUsages::UNIFORM);
+        let bind = self
+            .ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: None,
+                layout: &self.layout,
+                entries: &[wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: ubuf.as_entire_binding(),
+                }],
+            });
         let batches = [
             (&self.lit, &list.triangles),
             (&self.lines, &list.lines),
@@ -258,81 +284,95 @@ impl Renderer {
         let buffers: Vec<Option<wgpu::Buffer>> = batches
             .iter()
             .map(|(_, v)| {
-                (!v.is_empty()).then(|| {
-                    let verts: Vec<Vertex> = v
-                        .iter()
-                        .map(|&(position, color)| Vertex { position, color })
-                        .collect();
-                    self.buffer(bytemuck::cast_slice(&verts), wgpu::BufferUsages::VERTEX)
-                })
+                let verts: Vec<Vertex> = v
+                    .iter()
+                    .map(|&(position, color)| Vertex { position, color })
+                    .collect();
+                (!v.is_empty())
+                    .then(|| self.buffer(bytemuck::cast_slice(&verts), wgpu::BufferUsages::VERTEX))
             })
             .collect();
-        let mut enc = device.create_command_encoder(&Default::default());
-        {
-            let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
-                label: Some("picture"),
-                color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                    view: &msaa,
-                    depth_slice: None,
-                    resolve_target: Some(&resolved_view),
-                    ops: wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(wgpu::Color::WHITE),
-                        store: wgpu::StoreOp::Discard,
-                    },
-                })],
-                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                    view: &depth,
-                    depth_ops: Some(wgpu::Operations {
-                        load: wgpu::LoadOp::Clear(1.0),
-                        store: wgpu::StoreOp::Discard,
-                    }),
-                    stencil_ops: None,
+        let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("picture"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &msaa,
+                depth_slice: None,
+                resolve_target: Some(&resolved),
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::WHITE),
+                    store: wgpu::StoreOp::Discard,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth,
+                depth_ops: Some(wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(1.0),
+                    store: wgpu::StoreOp::Discard,
                 }),
-                timestamp_writes: None,
-                occlusion_query_set: None,
-                multiview_mask: None,
-            });
-            pass.set_bind_group(0, &bind, &[]);
-            for ((pipeline, verts), buf) in batches.iter().zip(&buffers) {
-                if let Some(buf) = buf {
-                    pass.set_pipeline(pipeline);
-                    pass.set_vertex_buffer(0, buf.slice(..));
-                    pass.draw(0..verts.len() as u32, 0..1);
-                }
+                stencil_ops: None,
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &bind, &[]);
+        for ((pipeline, verts), buf) in batches.iter().zip(&buffers) {
+            if let Some(buf) = buf {
+                pass.set_pipeline(pipeline);
+                pass.set_vertex_buffer(0, buf.slice(..));
+                pass.draw(0..verts.len() as u32, 0..1);
             }
         }
-        let row = width * 4;
-        let out = device.create_buffer(&wgpu::BufferDescriptor {
+    }
+
+    /// Submit `enc` with a copy of `target` out, wait, and return its rows.
+    fn read_back(
+        &self,
+        mut enc: wgpu::CommandEncoder,
+        target: &wgpu::Texture,
+        size: wgpu::Extent3d,
+    ) -> Result<Vec<u8>, String> {
+        let row = size.width * 4;
+        let out = self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("picture readback"),
-            size: (row * height) as u64,
+            size: (row * size.height) as u64,
             usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
             mapped_at_creation: false,
         });
         enc.copy_texture_to_buffer(
-            resolved.as_image_copy(),
+            target.as_image_copy(),
             wgpu::TexelCopyBufferInfo {
                 buffer: &out,
                 layout: wgpu::TexelCopyBufferLayout {
                     offset: 0,
                     bytes_per_row: Some(row),
-                    rows_per_image: Some(height),
+                    rows_per_image: Some(size.height),
                 },
             },
             size,
         );
         let index = self.ctx.queue.submit([enc.finish()]);
         let slice = out.slice(..);
-        slice.map_async(wgpu::MapMode::Read, |_| {});
-        let _ = device.poll(wgpu::PollType::Wait {
-            submission_index: Some(index),
-            timeout: None,
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
         });
+        self.ctx
+            .device
+            .poll(wgpu::PollType::Wait {
+                submission_index: Some(index),
+                timeout: None,
+            })
+            .map_err(|e| format!("the GPU stopped responding: {e}"))?;
+        rx.recv()
+            .map_err(|e| e.to_string())?
+            .map_err(|e| format!("reading the picture back failed: {e}"))?;
         let pixels = slice
             .get_mapped_range()
             .map(|d| d.to_vec())
-            .unwrap_or_default();
+            .map_err(|e| format!("reading the picture back failed: {e}"))?;
         out.unmap();
-        pixels
+        Ok(pixels)
     }
 
     /// A buffer holding `bytes`.

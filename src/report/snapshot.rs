@@ -42,6 +42,9 @@ pub const HEAD_HIGHLIGHT: [u8; 4] = [0, 200, 230, 255];
 /// The part's colour (lit).
 const PART: [u8; 4] = [214, 200, 176, 255];
 
+/// The head's colour (lit).
+const HEAD: [u8; 4] = [90, 90, 105, 255];
+
 /// The platform's colour (lit).
 const PLATFORM: [u8; 4] = [165, 168, 180, 255];
 
@@ -85,20 +88,34 @@ pub struct Pictures {
     pub adapter: String,
 }
 
-/// The pictures of `s`, checked at `margin`; without a GPU adapter, none
-/// and why.
+/// The pictures of `s`, checked at `margin`; without a GPU adapter (or
+/// when it fails), none and why.
 pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
-    let renderer = match Renderer::open() {
-        Ok(r) => r,
-        Err(why) => {
-            return Pictures {
-                missing: Some(why),
-                ..Default::default()
-            }
-        }
-    };
+    let drawn = Renderer::open().and_then(|r| {
+        let problems = problem_pictures(&r, s, margin)?;
+        let (list, camera) = overview(s);
+        let (w, h) = OVERVIEW_SIZE;
+        let overview = png(&r.draw(&list, &camera, w, h)?, w, h);
+        Ok((r.adapter().to_string(), overview, problems))
+    });
+    match drawn {
+        Ok((adapter, overview, problems)) => Pictures {
+            overview: Some(overview),
+            problems,
+            missing: None,
+            adapter,
+        },
+        Err(why) => Pictures {
+            missing: Some(why),
+            ..Default::default()
+        },
+    }
+}
+
+/// The first problems of each kind, pictured.
+fn problem_pictures(r: &Renderer, s: &ProgramScene, margin: f32) -> Result<Vec<Picture>, String> {
     let p = s.playback;
-    let mut problems = Vec::new();
+    let mut out = Vec::new();
     for kind in PROBLEM_KINDS {
         let shown = if kind == ProblemKind::Collision {
             COLLISIONS_PICTURED
@@ -110,8 +127,8 @@ pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
                 continue;
             };
             let (list, camera, highlighted) = problem_view(s, i, kind, margin);
-            let rgba = renderer.draw(&list, &camera, SIZE.0, SIZE.1);
-            problems.push(Picture {
+            let rgba = r.draw(&list, &camera, SIZE.0, SIZE.1)?;
+            out.push(Picture {
                 line: q.line,
                 kind,
                 value: q.value,
@@ -121,14 +138,7 @@ pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
             });
         }
     }
-    let (list, camera) = overview(s);
-    let rgba = renderer.draw(&list, &camera, OVERVIEW_SIZE.0, OVERVIEW_SIZE.1);
-    Pictures {
-        overview: Some(png(&rgba, OVERVIEW_SIZE.0, OVERVIEW_SIZE.1)),
-        problems,
-        missing: None,
-        adapter: renderer.adapter().to_string(),
-    }
+    Ok(out)
 }
 
 /// The material that exists while a move runs, near it.
@@ -227,6 +237,14 @@ fn head_at(s: &ProgramScene, pose: &Pose) -> Vec<[V3; 3]> {
         .collect()
 }
 
+/// The moment a picture shows: the head's pose, the part triangles
+/// (indices in the material) and head triangles within the margin.
+struct Moment {
+    pose: Pose,
+    hits: Vec<usize>,
+    head_hits: Vec<usize>,
+}
+
 /// The picture of move `i`'s problem `kind`: what to draw, the camera,
 /// and how many part triangles are highlighted.
 fn problem_view(
@@ -240,10 +258,8 @@ fn problem_view(
     let m = if mv.tcp { &tcp } else { &joint };
     let (from, to) = (axes_of(&mv.from), axes_of(&mv.to));
     // Whatever the head can reach along the line.
-    let (a, b) = (
-        Vec3::from(m.tip(&from).map(|x| x as f32)),
-        Vec3::from(m.tip(&to).map(|x| x as f32)),
-    );
+    let tip = |a| Vec3::from(m.tip(a).map(|x| x as f32));
+    let (a, b) = (tip(&from), tip(&to));
     let reach = s
         .scene
         .head
@@ -252,33 +268,21 @@ fn problem_view(
         .iter()
         .map(|&v| Vec3::from(v).length())
         .fold(0.0, f32::max);
-    let part = material(
-        s,
-        i,
-        (a + b) / 2.0,
-        reach + (b - a).length() / 2.0 + MAX_BAND,
-    );
-    // The pose to show: where the line meets the most material (collisions),
-    // else its end.
-    let mut shown = (m.pose_along(&from, &to, 1.0), Vec::new(), Vec::new());
-    // Between samples the head may come closer than at any of them: then
-    // what lies within a wider band is shown.
-    let mut band = margin;
-    while kind == ProblemKind::Collision && shown.1.is_empty() && band <= MAX_BAND {
-        for k in 0..SAMPLES {
-            let pose = m.pose_along(&from, &to, k as f64 / (SAMPLES - 1) as f64);
-            let (hits, head_hits) = contacts(&head_at(s, &pose), &part, band);
-            if hits.len() > shown.1.len() {
-                shown = (pose, hits, head_hits);
-            }
-        }
-        band *= 2.0;
-    }
-    let (pose, hits, head_hits) = shown;
-    let head = head_at(s, &pose);
-    let tip = Vec3::from(pose.tip);
+    let radius = reach + (b - a).length() / 2.0 + MAX_BAND;
+    let part = material(s, i, (a + b) / 2.0, radius);
+    let moment = if kind == ProblemKind::Collision {
+        meeting(s, &part, margin, |t| m.pose_along(&from, &to, t))
+    } else {
+        None
+    };
+    let moment = moment.unwrap_or_else(|| Moment {
+        pose: m.pose_along(&from, &to, 1.0),
+        hits: Vec::new(),
+        head_hits: Vec::new(),
+    });
+    let hits = &moment.hits;
     let target = if hits.is_empty() {
-        tip
+        Vec3::from(moment.pose.tip)
     } else {
         hits.iter()
             .flat_map(|&t| part.tris[t].iter().map(|&v| Vec3::from(v)))
@@ -291,37 +295,7 @@ fn problem_view(
         .map(|&v| (Vec3::from(v) - target).length())
         .fold(0.0, f32::max);
     let radius = VIEW_RADIUS.max(spread + 4.0);
-    let mut list = DrawList::default();
-    let keep = |t: &[V3; 3]| {
-        t.iter()
-            .any(|&v| (Vec3::from(v) - target).length() < 1.6 * radius)
-    };
-    let is_hit = {
-        let mut v = vec![false; part.tris.len()];
-        for &t in &hits {
-            v[t] = true;
-        }
-        v
-    };
-    for (t, tri) in part.tris.iter().enumerate() {
-        if is_hit[t] {
-            list.overlay_triangle(*tri, HIGHLIGHT);
-        } else if keep(tri) {
-            let color = if part.platform[t] { PLATFORM } else { PART };
-            list.triangle(*tri, color);
-        }
-    }
-    let mut is_head_hit = vec![false; head.len()];
-    for &h in &head_hits {
-        is_head_hit[h] = true;
-    }
-    for (h, tri) in head.iter().enumerate() {
-        if is_head_hit[h] {
-            list.triangle(*tri, HEAD_HIGHLIGHT);
-        } else {
-            list.triangle(*tri, [90, 90, 105, 255]);
-        }
-    }
+    let mut list = scene_at(s, &part, &moment, target, 1.6 * radius);
     // The line's own path, in its problem's colour.
     let color = class_color(LineClass::Problem(kind)).map(|c| (c * 255.0) as u8);
     let path: Vec<V3> = (0..=8)
@@ -330,9 +304,73 @@ fn problem_view(
     for w in path.windows(2) {
         list.line(w[0], w[1], [color[0], color[1], color[2], 0]);
     }
+    let pose = &moment.pose;
     let axis = Vec3::from(pose.axis()).normalize();
-    let camera = Camera::framing(target, radius, side_view(s, target, axis, &pose), axis);
+    let camera = Camera::framing(target, radius, side_view(s, target, axis, pose), axis);
     (list, camera, hits.len())
+}
+
+/// Where along a colliding line (`pose_at` its pose at a fraction) the
+/// head meets the most of `part` within the margin. Between samples the
+/// head may come closer than at any of them: then what lies within a
+/// wider band is shown; `None` if nothing lies within [`MAX_BAND`].
+fn meeting(
+    s: &ProgramScene,
+    part: &Material,
+    margin: f32,
+    pose_at: impl Fn(f64) -> Pose,
+) -> Option<Moment> {
+    let mut band = margin;
+    while band <= MAX_BAND {
+        let mut best: Option<Moment> = None;
+        for k in 0..SAMPLES {
+            let pose = pose_at(k as f64 / (SAMPLES - 1) as f64);
+            let (hits, head_hits) = contacts(&head_at(s, &pose), part, band);
+            if hits.len() > best.as_ref().map_or(0, |b| b.hits.len()) {
+                best = Some(Moment {
+                    pose,
+                    hits,
+                    head_hits,
+                });
+            }
+        }
+        if best.is_some() {
+            return best;
+        }
+        band *= 2.0;
+    }
+    None
+}
+
+/// The material within `radius` of `target` and the head at the moment,
+/// what meets highlighted.
+fn scene_at(s: &ProgramScene, part: &Material, at: &Moment, target: Vec3, radius: f32) -> DrawList {
+    let mut list = DrawList::default();
+    let mut is_hit = vec![false; part.tris.len()];
+    for &t in &at.hits {
+        is_hit[t] = true;
+    }
+    for (t, tri) in part.tris.iter().enumerate() {
+        if is_hit[t] {
+            list.overlay_triangle(*tri, HIGHLIGHT);
+        } else if tri
+            .iter()
+            .any(|&v| (Vec3::from(v) - target).length() < radius)
+        {
+            let color = if part.platform[t] { PLATFORM } else { PART };
+            list.triangle(*tri, color);
+        }
+    }
+    let head = head_at(s, &at.pose);
+    let mut is_head_hit = vec![false; head.len()];
+    for &h in &at.head_hits {
+        is_head_hit[h] = true;
+    }
+    for (h, tri) in head.iter().enumerate() {
+        let color = if is_head_hit[h] { HEAD_HIGHLIGHT } else { HEAD };
+        list.triangle(*tri, color);
+    }
+    list
 }
 
 /// A direction to look from at `target`: across the nozzle `axis`, from
