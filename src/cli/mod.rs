@@ -22,9 +22,13 @@ use maamplan::io::Placement;
 use maamplan::job::{JobError, JobSpec, LoadedJob};
 use maamplan::kinematics::{load_machine, Machine};
 use maamplan::report::json::pretty_bytes;
+use maamplan::report::program_glb::{program_glb, ProgramScene};
+use maamplan::report::snapshot::{pictures, Pictures};
 use maamplan::scene::{BeadSettings, PartModel, Scene};
 use maamplan::toolpath::Toolpath;
+use progress::Reporter;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 /// Collision-free, singularity-aware motion planning for multi-axis 3D printing.
 #[derive(Parser, Debug)]
@@ -509,4 +513,38 @@ mod tests {
             "returned before the GPU opened"
         );
     }
+}
+
+/// `program.glb` and the pictures of `program`, made side by side; under
+/// `-v` a line for each, with its size or count.
+pub fn seen_side_by_side(
+    program: &ProgramScene,
+    margin: f64,
+    show: &Reporter,
+) -> (Vec<u8>, Pictures) {
+    let ((glb, glb_s), (pictures, pictures_s)) = rayon::join(
+        || {
+            let t = Instant::now();
+            let glb = program_glb(program);
+            (glb, t.elapsed().as_secs_f64())
+        },
+        || {
+            let t = Instant::now();
+            let p = pictures(program, margin as f32);
+            (p, t.elapsed().as_secs_f64())
+        },
+    );
+    show.note(&format!(
+        "program.glb     {glb_s:>8.3} s {:>9.1} MB",
+        glb.len() as f64 / 1e6
+    ));
+    show.note(&match &pictures.missing {
+        None => format!(
+            "pictures        {pictures_s:>8.3} s {:>12} on {}",
+            pictures.problems.len() + 1,
+            pictures.adapter
+        ),
+        Some(why) => format!("pictures: none ({why})"),
+    });
+    (glb, pictures)
 }

@@ -2,6 +2,7 @@
 //! report.
 
 use super::progress::Reporter;
+use super::seen_side_by_side;
 use super::{check_output, load_machine_or_default, RunArgs, SceneArgs, Talk, UsageError};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
@@ -20,9 +21,8 @@ use maamplan::report::json::{
 use maamplan::report::machine_bodies::machine_bodies;
 use maamplan::report::playback::Playback;
 use maamplan::report::plots::figure_files;
-use maamplan::report::program_glb::{program_glb, ProgramScene};
+use maamplan::report::program_glb::ProgramScene;
 use maamplan::report::scene_glb::scene_glb;
-use maamplan::report::snapshot::pictures;
 use maamplan::report::{part_line, summary_rows, warnings};
 use maamplan::simulate::replay;
 use std::path::{Path, PathBuf};
@@ -350,7 +350,7 @@ impl Rendered {
                 show.begin("report");
                 let (figures, plots) =
                     figures.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-                let (program_glb, html) = watched(machine, job, &gcode, margin, |seen| {
+                let (program_glb, html) = watched(machine, job, &gcode, margin, show, |seen| {
                     report_html(context, machine, p, &figures, seconds, Some(seen))
                 })?;
                 let report_s = t.elapsed().as_secs_f64();
@@ -397,6 +397,7 @@ fn watched(
     job: &LoadedJob,
     gcode: &str,
     margin: f64,
+    show: &Reporter,
     page: impl FnOnce(&Seen) -> String,
 ) -> Result<(Vec<u8>, String)> {
     let (moves, timeline, sim) = replay(machine, &job.toolpath, gcode, margin)
@@ -410,10 +411,7 @@ fn watched(
         stamp: &stamp,
         bodies: &machine_bodies(machine)?,
     };
-    let (glb, pictures) = rayon::join(
-        || program_glb(&program),
-        || pictures(&program, margin as f32),
-    );
+    let (glb, pictures) = seen_side_by_side(&program, margin, show);
     let html = page(&Seen {
         playback: &playback,
         pictures: &pictures,

@@ -3,6 +3,7 @@
 //! would run it; the wiring of [`maamplan::simulate`]'s stages.
 
 use super::progress::Reporter;
+use super::seen_side_by_side;
 use super::{check_output, machine_and_margin, RunArgs, SceneArgs, Talk};
 use anyhow::{Context, Result};
 use clap::Args;
@@ -21,8 +22,7 @@ use maamplan::report::moves_csv::write_moves_csv;
 use maamplan::report::part_line;
 use maamplan::report::playback::Playback;
 use maamplan::report::plots::simulation_figures;
-use maamplan::report::program_glb::{program_glb, ProgramScene};
-use maamplan::report::snapshot::pictures;
+use maamplan::report::program_glb::ProgramScene;
 use maamplan::scene::{BeadSettings, Scene};
 use maamplan::simulate::{self, ProblemKind, Simulation, Timeline};
 use maamplan::toolpath::Toolpath;
@@ -161,7 +161,14 @@ pub fn run(a: SimulateArgs) -> Result<()> {
                 playback: &Playback::new(moves, &sim, &timeline),
                 margin,
             };
-            write_outputs(out, &machine, &sim, &run, (!a.no_plots).then_some(&shown))?
+            write_outputs(
+                out,
+                &machine,
+                &sim,
+                &run,
+                (!a.no_plots).then_some(&shown),
+                &show,
+            )?
         }
         None => Vec::new(),
     };
@@ -211,6 +218,7 @@ fn write_outputs(
     sim: &Simulation,
     run: &SimulationRun,
     shown: Option<&Shown>,
+    show: &Reporter,
 ) -> Result<Vec<String>> {
     let mut files = vec![
         (
@@ -231,12 +239,7 @@ fn write_outputs(
             bodies: &machine_bodies(machine)?,
         };
         let ((glb, pictures), figs) = rayon::join(
-            || {
-                rayon::join(
-                    || program_glb(&program),
-                    || pictures(&program, shown.margin as f32),
-                )
-            },
+            || seen_side_by_side(&program, shown.margin, show),
             || simulation_figures(machine, sim),
         );
         let figs = figs.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
