@@ -482,39 +482,6 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
     Ok(())
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::sync::atomic::{AtomicBool, Ordering};
-    use std::sync::Arc;
-
-    /// A run that fails while the GPU is still being opened (an input
-    /// error found while the driver loads) returns only once the opening
-    /// thread is done: `main` then prints the error and exits 2 with no
-    /// other thread inside the driver, whose start crashes a process that
-    /// leaves under it. Every command holds its [`Opening`] as a local, so
-    /// every `?` between `open` and `build_with` passes through this drop.
-    #[test]
-    fn an_input_error_waits_for_the_gpu_being_opened() {
-        let opened = Arc::new(AtomicBool::new(false));
-        let flag = opened.clone();
-        let run = || -> Result<()> {
-            let _opening = Opening(Some(std::thread::spawn(move || {
-                std::thread::sleep(std::time::Duration::from_millis(300));
-                flag.store(true, Ordering::SeqCst);
-                Ok(None)
-            })));
-            Err(UsageError("bad input".into()).into())
-        };
-        let e = run().unwrap_err();
-        assert!(e.is::<UsageError>());
-        assert!(
-            opened.load(Ordering::SeqCst),
-            "returned before the GPU opened"
-        );
-    }
-}
-
 /// `program.glb` and the pictures of `program`, made side by side; under
 /// `-v` a line for each, with its size or count.
 pub fn seen_side_by_side(
@@ -547,4 +514,37 @@ pub fn seen_side_by_side(
         Some(why) => format!("pictures: none ({why})"),
     });
     (glb, pictures)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::sync::Arc;
+
+    /// A run that fails while the GPU is still being opened (an input
+    /// error found while the driver loads) returns only once the opening
+    /// thread is done: `main` then prints the error and exits 2 with no
+    /// other thread inside the driver, whose start crashes a process that
+    /// leaves under it. Every command holds its [`Opening`] as a local, so
+    /// every `?` between `open` and `build_with` passes through this drop.
+    #[test]
+    fn an_input_error_waits_for_the_gpu_being_opened() {
+        let opened = Arc::new(AtomicBool::new(false));
+        let flag = opened.clone();
+        let run = || -> Result<()> {
+            let _opening = Opening(Some(std::thread::spawn(move || {
+                std::thread::sleep(std::time::Duration::from_millis(300));
+                flag.store(true, Ordering::SeqCst);
+                Ok(None)
+            })));
+            Err(UsageError("bad input".into()).into())
+        };
+        let e = run().unwrap_err();
+        assert!(e.is::<UsageError>());
+        assert!(
+            opened.load(Ordering::SeqCst),
+            "returned before the GPU opened"
+        );
+    }
 }
