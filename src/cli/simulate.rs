@@ -7,11 +7,9 @@ use super::{check_output, machine_and_margin, RunArgs, SceneArgs, Talk};
 use anyhow::{Context, Result};
 use clap::Args;
 use maamplan::default_job::default_head;
-use maamplan::geometry::Mesh;
 use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_folder_atomic;
-use maamplan::job::scene_config;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions, Progress};
 use maamplan::report::html::{simulation_html, ReportContext};
@@ -19,7 +17,7 @@ use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::moves_csv::write_moves_csv;
 use maamplan::report::part_line;
 use maamplan::report::plots::simulation_figures;
-use maamplan::scene::{BeadSettings, Scene};
+use maamplan::scene::Scene;
 use maamplan::simulate::{self, ProblemKind, Simulation, Timeline};
 use maamplan::toolpath::Toolpath;
 use std::fmt::Write;
@@ -57,10 +55,8 @@ fn load_scene(
 ) -> Result<(String, Toolpath, Scene, Timeline)> {
     if a.scene.toolpath.is_some() {
         let job = a.scene.load(machine)?;
-        let mut scene = job.scene;
-        let timeline = simulate::timeline(machine, &job.toolpath, &program.moves);
-        scene.restamp(|s| timeline.stamp(s));
-        return Ok((job.source, job.toolpath, scene, timeline));
+        let s = simulate::against::job(job, machine, program);
+        return Ok((s.source, s.toolpath, s.scene, s.timeline));
     }
     let ignored = a.scene.toolpath_options();
     if !ignored.is_empty() && !a.talk.quiet {
@@ -73,30 +69,19 @@ fn load_scene(
         Some(p) => load_mesh(p)?,
         None => default_head(),
     };
-    let settings = BeadSettings::of_machine(machine);
-    let own = |platform: &Mesh| simulate::own_part(program, machine, platform, &settings);
-    let (platform, part) = match &a.scene.platform {
-        Some(p) => {
-            let platform = load_mesh(p)?;
-            let part = own(&platform);
-            (platform, part)
-        }
-        // A plate under the part: its toolpath says where that is.
-        None => {
-            let platform = simulate::platform_under(program, machine);
-            let part = own(&platform);
-            (platform, part)
-        }
+    let platform = match &a.scene.platform {
+        Some(p) => Some(load_mesh(p)?),
+        None => None,
     };
-    let scene = Scene::build_deposited(
-        &part.toolpath,
+    let s = simulate::against::own(
+        program,
+        machine,
         &head,
-        &platform,
-        &scene_config(a.scene.clearance, a.scene.part.model(), settings),
-        Some(part.groups),
+        platform,
+        a.scene.clearance,
+        a.scene.part.model(),
     )?;
-    let source = format!("the part it deposits ({})", scene.part.name());
-    Ok((source, part.toolpath, scene, part.timeline))
+    Ok((s.source, s.toolpath, s.scene, s.timeline))
 }
 
 /// Run `simulate`.

@@ -2,11 +2,13 @@
 //! (`scene_glb.rs`) and a self-contained HTML report (`html.rs`), all made
 //! from a [`Plan`] (or a [`crate::simulate::Simulation`]) with no extra
 //! tool; and what a program reads: the commands' JSON documents
-//! (`json.rs`) and a simulation's table of moves (`moves_csv.rs`).
+//! (`json.rs`) and a simulation's table of moves (`moves_csv.rs`); a
+//! plan's files rendered and written as one set (`plan_files.rs`).
 
 pub mod html;
 pub mod json;
 pub mod moves_csv;
+pub mod plan_files;
 pub mod plots;
 pub mod scene_glb;
 
