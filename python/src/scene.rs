@@ -4,6 +4,7 @@
 use crate::inputs::{self, rows, JobInputs, Scratch};
 use crate::progress::Callback;
 use crate::{raise, usage};
+use maamplan::collide::sample::tilted_queries;
 use maamplan::collide::Backend;
 use maamplan::geometry::Pose;
 use maamplan::io::toolpath_folder::toolpath_files;
@@ -390,6 +391,23 @@ impl Scene {
         );
         let poses: Vec<Pose> = axes.iter().map(|a| self.machine.pose(a)).collect();
         pose_array(py, &poses)
+    }
+
+    /// `bench`'s queries: about `count` poses (waypoints evenly strided,
+    /// each in its own orientation and `tilts` variants tilted 15°, 30°,
+    /// 45°, 60° at fixed pseudo-random azimuths) and their cutoffs, as
+    /// `(poses (N, 4, 4), cutoffs (N,))`.
+    #[pyo3(signature = (count=20_000, tilts=3))]
+    fn sample_poses<'py>(
+        &self,
+        py: Python<'py>,
+        count: usize,
+        tilts: usize,
+    ) -> (Bound<'py, PyArray3<f64>>, Bound<'py, PyArray1<u32>>) {
+        let q = tilted_queries(&self.job.scene.waypoint_queries, count, tilts);
+        let poses: Vec<Pose> = q.iter().map(|q| q.pose).collect();
+        let cutoffs: Vec<u32> = q.iter().map(|q| q.cutoff).collect();
+        (pose_array(py, &poses), cutoffs.into_pyarray(py))
     }
 
     fn __repr__(&self) -> String {
