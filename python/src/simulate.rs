@@ -7,7 +7,7 @@ use crate::progress::Callback;
 use crate::raise;
 use crate::scene::{job_inputs, load};
 use maamplan::default_job::default_head;
-use maamplan::io::gcode_read::load_program;
+use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions};
@@ -74,30 +74,7 @@ pub fn simulate(
         PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
     }
     let program_text = load_program(&program, &machine).map_err(|e| raise(&e))?;
-    let against = if own {
-        let head = match &inputs.head {
-            Some(p) => load_mesh(p).map_err(|e| raise(&e))?,
-            None => default_head(),
-        };
-        let platform = match &inputs.platform {
-            Some(p) => Some(load_mesh(p).map_err(|e| raise(&e))?),
-            None => None,
-        };
-        py.detach(|| {
-            against::own(
-                &program_text,
-                &machine,
-                &head,
-                platform,
-                clearance,
-                inputs.part,
-            )
-        })
-        .map_err(|e| raise(&e))?
-    } else {
-        let job = load(py, &inputs, &machine)?;
-        py.detach(|| against::job(job, &machine, &program_text))
-    };
+    let against = part_against(py, &inputs, own, &machine, &program_text)?;
     let tell = Callback::new(progress);
     let run = py.detach(|| -> Result<_, AnyError> {
         tell.stage("checking");
@@ -141,6 +118,40 @@ pub fn simulate(
         seconds: t0.elapsed().as_secs_f64(),
         _inputs: inputs,
     })
+}
+
+/// What `program` is checked against, as `simulate` sets it up: the
+/// job's toolpath (`own` false) or the beads the program lays itself.
+fn part_against(
+    py: Python<'_>,
+    inputs: &JobInputs,
+    own: bool,
+    machine: &Machine,
+    program: &Program,
+) -> PyResult<against::Against> {
+    if !own {
+        let job = load(py, inputs, machine)?;
+        return Ok(py.detach(|| against::job(job, machine, program)));
+    }
+    let head = match &inputs.head {
+        Some(p) => load_mesh(p).map_err(|e| raise(&e))?,
+        None => default_head(),
+    };
+    let platform = match &inputs.platform {
+        Some(p) => Some(load_mesh(p).map_err(|e| raise(&e))?),
+        None => None,
+    };
+    py.detach(|| {
+        against::own(
+            program,
+            machine,
+            &head,
+            platform,
+            inputs.clearance,
+            inputs.part,
+        )
+    })
+    .map_err(|e| raise(&e))
 }
 
 /// A simulated program: each line that moves measured (arrays, one

@@ -163,3 +163,26 @@ def test_gpu_backend_gives_the_cpus_verdicts(simple_scene):
     assert 0 < expected.sum() < len(expected)
     assert (gpu.collides(poses, cutoffs, margin=0.0) == expected).all()
     assert gpu.backend == "gpu"
+
+
+def test_arrays_with_surfaces_are_the_part_in_print_order():
+    plate = trimesh.creation.box(extents=(200, 200, 2))
+    plate.apply_translation([0, 0, -1])
+    # Two flat layers, 0.5 and 1.0 mm up, each a square surface; the
+    # waypoints run along x.
+    square = lambda z: (np.array([[-30, -30, z], [30, -30, z], [30, 30, z], [-30, 30, z]]),
+                        np.array([[0, 1, 2], [0, 2, 3]]))
+    x = np.linspace(-10, 10, 21)
+    pos = np.column_stack([np.r_[x, x], np.zeros(42), np.r_[np.full(21, 0.5), np.full(21, 1.0)]])
+    dirs = np.tile([0.0, 0.0, 1.0], (42, 1))
+    layer = np.r_[np.zeros(21), np.ones(21)]
+    tp = maamplan.Toolpath.from_arrays(pos, dirs, layer, surfaces=[square(0.5), square(1.0)])
+    scene = maamplan.Scene(tp, head=cone_head(), platform=plate)
+    assert scene.part == "surfaces" and scene.layer_names == ["0", "1"]
+    ev = maamplan.Evaluator(scene, backend="cpu")
+    # The tip between the layers (0.4 mm under the second: past the 0.3 mm
+    # clearance along the nozzle): clear of the first layer below it while
+    # the second is not printed, through the second's surface once it is.
+    between = (np.array([[0.0, 0.0, 0.6]] * 2), np.array([[0.0, 0.0, 1.0]] * 2))
+    before, after = scene.cutoffs[21], np.iinfo(np.uint32).max
+    assert ev.collides(between, np.array([before, after]), margin=0.0).tolist() == [False, True]
