@@ -73,7 +73,9 @@ pub fn simulate(
         .expect("no NUL");
         PyErr::warn(py, &py.get_type::<PyUserWarning>(), &message, 1)?;
     }
-    let program_text = load_program(&program, &machine).map_err(|e| raise(&e))?;
+    let program_text = py
+        .detach(|| load_program(&program, &machine))
+        .map_err(|e| raise(&e))?;
     let against = part_against(py, &inputs, own, &machine, &program_text)?;
     let tell = Callback::new(progress);
     let run = py.detach(|| -> Result<_, AnyError> {
