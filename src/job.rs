@@ -17,6 +17,7 @@ use crate::io::mesh::load_mesh;
 use crate::io::toolpath_folder::load_toolpath;
 use crate::io::{InputError, Placement};
 use crate::kinematics::Machine;
+use crate::plan::{PlanOptions, Prepared};
 use crate::program_toolpath::{looks_like_program, ProgramToolpath};
 use crate::scene::{
     beads, BeadSettings, HeadConfig, PartGroup, PartModel, Scene, SceneConfig, SceneError,
@@ -203,6 +204,29 @@ impl LoadedJob {
             jump,
         };
         Ok((job, beside_result))
+    }
+
+    /// Load `spec` to be planned for `machine` with `opts`: the planner's
+    /// first stages ([`Prepared::new`]) run on the toolpath while the
+    /// scene is built, and a program given as the toolpath has its
+    /// sections as far apart as its travels (`opts.jump` becomes that
+    /// distance, as the planner must then use it).
+    pub fn load_prepared(
+        spec: &JobSpec,
+        machine: &Machine,
+        opts: &mut PlanOptions,
+    ) -> Result<(LoadedJob, Prepared), JobError> {
+        let (job, prepared) = LoadedJob::load_beside(spec, |toolpath, jump| {
+            let opts = PlanOptions {
+                jump: jump.unwrap_or(opts.jump),
+                ..*opts
+            };
+            Prepared::new(toolpath, machine, &opts)
+        })?;
+        if let Some(jump) = job.jump {
+            opts.jump = jump;
+        }
+        Ok((job, prepared))
     }
 
     /// Why [`LoadedJob::flipped_layers`] were reversed, as messages say it.

@@ -25,6 +25,7 @@
 pub mod check;
 pub mod collide;
 pub mod default_job;
+pub mod errors;
 pub mod generate;
 pub mod geometry;
 pub mod io;

@@ -23,8 +23,6 @@ macro_rules! eprintln {
 mod cli;
 
 use clap::Parser;
-use maamplan::io::InputError;
-use maamplan::scene::SceneError;
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -57,28 +55,11 @@ fn exit_code(e: &anyhow::Error) -> u8 {
         if cause.is::<cli::plan::StrictError>() {
             return 3;
         }
-        if cause.is::<InputError>()
-            || cause.is::<cli::UsageError>()
-            || cause.is::<maamplan::kinematics::MachineError>()
-            || cause.is::<maamplan::generate::GenerateError>()
-        {
+        if cause.is::<cli::UsageError>() {
             return 2;
         }
-        if let Some(j) = cause.downcast_ref::<maamplan::job::JobError>() {
-            return match j {
-                maamplan::job::JobError::Scene {
-                    source: SceneError::Internal(_),
-                    ..
-                } => 1,
-                _ => 2,
-            };
-        }
-        if let Some(s) = cause.downcast_ref::<SceneError>() {
-            return if matches!(s, SceneError::Internal(_)) {
-                1
-            } else {
-                2
-            };
+        if let Some(user) = maamplan::errors::user_can_fix(cause) {
+            return if user { 2 } else { 1 };
         }
     }
     1

@@ -12,9 +12,6 @@ mod slice;
 
 use anyhow::Result;
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use maamplan::collide::cpu::CpuBackend;
-use maamplan::collide::gpu::{GpuBackend, GpuContext, GpuOptions};
-use maamplan::collide::parry::ParryBackend;
 use maamplan::collide::Backend;
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath_folder::toolpath_files;
@@ -22,13 +19,11 @@ use maamplan::io::Placement;
 use maamplan::job::{JobError, JobSpec, LoadedJob};
 use maamplan::kinematics::{load_machine, Machine};
 use maamplan::report::json::pretty_bytes;
-use maamplan::report::program_glb::{program_glb, ProgramScene};
-use maamplan::report::snapshot::{pictures, Pictures};
-use maamplan::scene::{BeadSettings, PartModel, Scene};
+use maamplan::scene::{BeadSettings, PartModel};
 use maamplan::toolpath::Toolpath;
-use progress::Reporter;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+
+pub use maamplan::collide::choice::{BackendKind, Opening};
 
 /// Collision-free, singularity-aware motion planning for multi-axis 3D printing.
 #[derive(Parser, Debug)]
@@ -179,22 +174,17 @@ impl SceneArgs {
     /// Load the inputs (or the built-in example) and build the scene,
     /// beads (where the part is modelled from them) as `machine` lays them.
     pub fn load(&self, machine: &Machine) -> Result<LoadedJob> {
-        Ok(self.load_beside(machine, |_, _| ())?.0)
+        LoadedJob::load(&self.spec(machine)?).map_err(job_error)
     }
 
-    /// [`SceneArgs::load`], running `beside` on the toolpath while the
-    /// scene is built ([`LoadedJob::load_beside`]).
-    pub fn load_beside<T: Send>(
-        &self,
-        machine: &Machine,
-        beside: impl FnOnce(&Toolpath, Option<f64>) -> T + Send,
-    ) -> Result<(LoadedJob, T)> {
+    /// The job these arguments name, for `machine`.
+    pub fn spec(&self, machine: &Machine) -> Result<JobSpec> {
         if let Some(t) = self.tilt {
             if !t.is_finite() {
                 return Err(UsageError("--tilt must be a finite angle (degrees)".into()).into());
             }
         }
-        let spec = JobSpec {
+        Ok(JobSpec {
             toolpath: self.toolpath.clone(),
             head: self.head.clone(),
             platform: self.platform.clone(),
@@ -209,132 +199,16 @@ impl SceneArgs {
             beads: BeadSettings::of_machine(machine),
             reach: Some(machine.reach()),
             machine: machine.clone(),
-        };
-        LoadedJob::load_beside(&spec, beside).map_err(|e| match e {
-            JobError::Setting(m) => UsageError(m).into(),
-            e => anyhow::Error::from(e),
         })
     }
 }
 
-/// Backends selectable on the command line.
-#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
-pub enum BackendKind {
-    /// A hardware GPU when present, the CPU otherwise.
-    Auto,
-    /// wgpu compute shaders on the best adapter (software ones included).
-    Gpu,
-    /// Exact BVH + distance-grid evaluator on all CPU cores.
-    Cpu,
-    /// The same semantics from parry3d's primitives (the reference).
-    Parry,
-}
-
-impl BackendKind {
-    /// The name used on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            BackendKind::Auto => "auto",
-            BackendKind::Gpu => "gpu",
-            BackendKind::Cpu => "cpu",
-            BackendKind::Parry => "parry",
-        }
-    }
-
-    /// Build the backend over `scene`; `announce` says on stderr what `auto` chose.
-    pub fn build<'a>(self, scene: &'a Scene, announce: bool) -> Result<Box<dyn Backend + 'a>> {
-        self.build_with(Opening::none(), scene, announce, GpuOptions::default())
-    }
-
-    /// Start opening the GPU this backend needs (none for cpu and parry) on
-    /// another thread, so that it opens while the caller loads the scene:
-    /// a driver's start takes a few hundred milliseconds.
-    pub fn open(self) -> Opening {
-        let hardware_only = match self {
-            BackendKind::Auto => true,
-            BackendKind::Gpu => false,
-            BackendKind::Cpu | BackendKind::Parry => return Opening(None),
-        };
-        Opening(Some(std::thread::spawn(move || {
-            GpuContext::open(hardware_only)
-        })))
-    }
-
-    /// [`Self::build`] with the GPU `opening` ([`Self::open`], or
-    /// [`Opening::none`]), the gpu backend tuned by `gpu` (`bench`'s
-    /// tuning flags).
-    pub fn build_with<'a>(
-        self,
-        mut opening: Opening,
-        scene: &'a Scene,
-        announce: bool,
-        gpu: GpuOptions,
-    ) -> Result<Box<dyn Backend + 'a>> {
-        let mut context = || -> Result<Option<GpuContext>, maamplan::collide::CollideError> {
-            match opening.0.take() {
-                Some(thread) => thread.join().expect("opening the GPU panicked"),
-                None => GpuContext::open(self == BackendKind::Auto),
-            }
-        };
-        Ok(match self {
-            BackendKind::Auto => match context() {
-                Ok(Some(ctx)) => {
-                    let name = format!("{} ({})", ctx.summary.name, ctx.summary.backend);
-                    let b = GpuBackend::new(ctx, scene, gpu)?;
-                    if announce {
-                        eprintln!("backend auto: gpu on {name}");
-                    }
-                    Box::new(b)
-                }
-                Ok(None) => {
-                    if announce {
-                        eprintln!(
-                            "backend auto: no hardware GPU, using cpu ({} threads)",
-                            rayon::current_num_threads()
-                        );
-                    }
-                    Box::new(CpuBackend::new(scene))
-                }
-                Err(e) => {
-                    eprintln!("backend auto: {e}; using cpu");
-                    Box::new(CpuBackend::new(scene))
-                }
-            },
-            BackendKind::Gpu => {
-                let ctx = context()?.ok_or_else(|| {
-                    UsageError(
-                        "--backend gpu: no GPU adapter found: install a Vulkan driver (on Debian/Ubuntu, mesa-vulkan-drivers gives the lavapipe software adapter) or use --backend cpu".into(),
-                    )
-                })?;
-                Box::new(GpuBackend::new(ctx, scene, gpu)?)
-            }
-            BackendKind::Cpu => Box::new(CpuBackend::new(scene)),
-            BackendKind::Parry => Box::new(ParryBackend::new(scene)?),
-        })
-    }
-}
-
-/// A GPU context being opened on another thread ([`BackendKind::open`]),
-/// or none: then [`BackendKind::build_with`] opens the GPU it needs itself.
-pub struct Opening(
-    Option<std::thread::JoinHandle<Result<Option<GpuContext>, maamplan::collide::CollideError>>>,
-);
-
-impl Opening {
-    /// Nothing opened ahead (a caller with no loading to overlap).
-    pub fn none() -> Self {
-        Opening(None)
-    }
-}
-
-impl Drop for Opening {
-    /// A run that ends before it builds its backend (an input error)
-    /// waits for the driver to finish opening: leaving the process while
-    /// another thread is inside the driver's start crashes it.
-    fn drop(&mut self) {
-        if let Some(thread) = self.0.take() {
-            let _ = thread.join();
-        }
+/// A job that failed to load, as the command line reports it: a setting
+/// out of range is a misuse (exit 2).
+pub fn job_error(e: JobError) -> anyhow::Error {
+    match e {
+        JobError::Setting(m) => UsageError(m).into(),
+        e => anyhow::Error::from(e),
     }
 }
 
@@ -480,71 +354,4 @@ pub fn write_json(path: &Path, value: &serde_json::Value) -> Result<()> {
         ))
     })?;
     Ok(())
-}
-
-/// `program.glb` and the pictures of `program`, made side by side; under
-/// `-v` a line for each, with its size or count.
-pub fn seen_side_by_side(
-    program: &ProgramScene,
-    margin: f64,
-    show: &Reporter,
-) -> (Vec<u8>, Pictures) {
-    let ((glb, glb_s), (pictures, pictures_s)) = rayon::join(
-        || {
-            let t = Instant::now();
-            let glb = program_glb(program);
-            (glb, t.elapsed().as_secs_f64())
-        },
-        || {
-            let t = Instant::now();
-            let p = pictures(program, margin as f32);
-            (p, t.elapsed().as_secs_f64())
-        },
-    );
-    show.note(&format!(
-        "program.glb     {glb_s:>8.3} s {:>9.1} MB",
-        glb.len() as f64 / 1e6
-    ));
-    show.note(&match &pictures.missing {
-        None => format!(
-            "pictures        {pictures_s:>8.3} s {:>12} on {}",
-            pictures.problems.len() + 1,
-            pictures.adapter
-        ),
-        Some(why) => format!("pictures: none ({why})"),
-    });
-    (glb, pictures)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use std::sync::atomic::{AtomicBool, Ordering};
-    use std::sync::Arc;
-
-    /// A run that fails while the GPU is still being opened (an input
-    /// error found while the driver loads) returns only once the opening
-    /// thread is done: `main` then prints the error and exits 2 with no
-    /// other thread inside the driver, whose start crashes a process that
-    /// leaves under it. Every command holds its [`Opening`] as a local, so
-    /// every `?` between `open` and `build_with` passes through this drop.
-    #[test]
-    fn an_input_error_waits_for_the_gpu_being_opened() {
-        let opened = Arc::new(AtomicBool::new(false));
-        let flag = opened.clone();
-        let run = || -> Result<()> {
-            let _opening = Opening(Some(std::thread::spawn(move || {
-                std::thread::sleep(std::time::Duration::from_millis(300));
-                flag.store(true, Ordering::SeqCst);
-                Ok(None)
-            })));
-            Err(UsageError("bad input".into()).into())
-        };
-        let e = run().unwrap_err();
-        assert!(e.is::<UsageError>());
-        assert!(
-            opened.load(Ordering::SeqCst),
-            "returned before the GPU opened"
-        );
-    }
 }

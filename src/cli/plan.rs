@@ -2,29 +2,23 @@
 //! report.
 
 use super::progress::Reporter;
-use super::seen_side_by_side;
-use super::{check_output, load_machine_or_default, RunArgs, SceneArgs, Talk, UsageError};
+use super::{
+    check_output, job_error, load_machine_or_default, RunArgs, SceneArgs, Talk, UsageError,
+};
 use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
-use maamplan::io::gcode::{write_gcode, GcodeHeader};
-use maamplan::io::output::{write_atomic, write_output_set, FolderFile};
-use maamplan::io::plan_csv::write_plan_csv;
+use maamplan::io::output::{write_atomic, FolderFile};
 use maamplan::job::LoadedJob;
 use maamplan::kinematics::Machine;
 use maamplan::plan::candidates::Sampling;
 use maamplan::plan::smooth::Smoothing;
-use maamplan::plan::{plan_prepared, Plan, PlanOptions, Prepared, Skip};
-use maamplan::report::html::{report_html, ReportContext, Seen};
+use maamplan::plan::{plan_prepared, Plan, PlanOptions, Skip};
+use maamplan::report::html::ReportContext;
 use maamplan::report::json::{
     plan_report, pretty_bytes, skipped_waypoints, PlanRun, SkippedWaypoint,
 };
-use maamplan::report::machine_bodies::machine_bodies;
-use maamplan::report::playback::Playback;
-use maamplan::report::plots::figure_files;
-use maamplan::report::program_glb::ProgramScene;
-use maamplan::report::scene_glb::scene_glb;
+use maamplan::report::plan_files::{write_output, Rendered};
 use maamplan::report::{part_line, summary_rows, warnings};
-use maamplan::simulate::replay;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -176,17 +170,8 @@ pub fn run(a: PlanArgs) -> Result<()> {
     // Stages 1 and 2 need only the toolpath: they run while the scene is
     // built, and the GPU opens meanwhile.
     let opening = a.run.backend.open();
-    // A program's sections are as far apart as its travels.
-    let (job, prepared) = a.scene.load_beside(&machine, |toolpath, jump| {
-        let opts = PlanOptions {
-            jump: jump.unwrap_or(opts.jump),
-            ..opts
-        };
-        Prepared::new(toolpath, &machine, &opts)
-    })?;
-    if let Some(jump) = job.jump {
-        opts.jump = jump;
-    }
+    let (job, prepared) = LoadedJob::load_prepared(&a.scene.spec(&machine)?, &machine, &mut opts)
+        .map_err(job_error)?;
     let backend =
         a.run
             .backend
@@ -239,7 +224,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         },
     );
     let files = rendered.into_files(pretty_bytes(&report));
-    write_output(&out, &files)?;
+    write_output(&out, &files).map_err(|e| UsageError(e.0))?;
     show.finish();
     if !a.talk.quiet {
         let written = Written {
@@ -282,173 +267,6 @@ fn refuse_skips(skipped: &[SkippedWaypoint]) -> Result<()> {
         first.index
     ))
     .into())
-}
-
-/// What `plan` writes besides report.json, rendered in memory: the
-/// program and the CSV, and unless `--no-plots` the report's files.
-struct Rendered {
-    gcode: String,
-    csv: String,
-    report: Option<ReportFiles>,
-    /// Seconds of the `write` stage (the program and the CSV) and of the
-    /// `report` stage.
-    stages: Vec<(String, f64)>,
-}
-
-/// The scenes, the page and the plots folder.
-struct ReportFiles {
-    glb: Vec<u8>,
-    program_glb: Vec<u8>,
-    html: String,
-    plots: Vec<FolderFile>,
-}
-
-impl Rendered {
-    /// Render the outputs of plan `p`; the program and the report are
-    /// independent and rendered side by side, as are the figures and the
-    /// scene; the program is then watched (with `report_margin`, the
-    /// margin its pictures check at; `None`: no report).
-    fn new(
-        machine: &Machine,
-        p: &Plan,
-        job: &LoadedJob,
-        context: &ReportContext,
-        seconds: f64,
-        report_margin: Option<f64>,
-        show: &Reporter,
-    ) -> Result<Self> {
-        let header = GcodeHeader {
-            source: job.source.clone(),
-            command: context.command.to_string(),
-        };
-        let (program, drawn) = rayon::join(
-            || {
-                let t = Instant::now();
-                let (gcode, csv) = rayon::join(
-                    || write_gcode(machine, &p.program, &header),
-                    || write_plan_csv(machine, &p.waypoints),
-                );
-                (gcode, csv, t.elapsed().as_secs_f64())
-            },
-            || {
-                report_margin.map(|margin| {
-                    let t = Instant::now();
-                    let (figures, glb) = rayon::join(
-                        || figure_files(machine, p),
-                        || scene_glb(&job.scene, p, machine),
-                    );
-                    (figures, glb, margin, t)
-                })
-            },
-        );
-        let (gcode, csv, write_s) = program;
-        show.stage_line("write", write_s, None);
-        let mut stages = vec![("write".to_string(), write_s)];
-        let report = match drawn {
-            None => None,
-            Some((figures, glb, margin, t)) => {
-                show.begin("report");
-                let (figures, plots) =
-                    figures.map_err(|e| anyhow::anyhow!("drawing the plots: {e}"))?;
-                let (program_glb, html) = watched(machine, job, &gcode, margin, show, |seen| {
-                    report_html(context, machine, p, &figures, seconds, Some(seen))
-                })?;
-                let report_s = t.elapsed().as_secs_f64();
-                show.stage_line("report", report_s, None);
-                stages.push(("report".to_string(), report_s));
-                Some(ReportFiles {
-                    glb,
-                    program_glb,
-                    html,
-                    plots,
-                })
-            }
-        };
-        Ok(Rendered {
-            gcode,
-            csv,
-            report,
-            stages,
-        })
-    }
-
-    /// The output folder's files, report.json's `report_json` among them,
-    /// in the order they are listed to the user.
-    fn into_files(self, report_json: Vec<u8>) -> Vec<FolderFile> {
-        let mut files = vec![
-            ("toolpath.gcode".into(), self.gcode.into_bytes()),
-            ("plan.csv".into(), self.csv.into_bytes()),
-            ("report.json".into(), report_json),
-        ];
-        if let Some(r) = self.report {
-            files.push(("scene.glb".into(), r.glb));
-            files.push(("program.glb".into(), r.program_glb));
-            files.push(("report.html".into(), r.html.into_bytes()));
-            files.extend(r.plots);
-        }
-        files
-    }
-}
-
-/// The written program read back and watched: `program.glb`, and the page
-/// `page` makes with the problems' times and pictures.
-fn watched(
-    machine: &Machine,
-    job: &LoadedJob,
-    gcode: &str,
-    margin: f64,
-    show: &Reporter,
-    page: impl FnOnce(&Seen) -> String,
-) -> Result<(Vec<u8>, String)> {
-    let (moves, timeline, sim) = replay(machine, &job.toolpath, gcode, margin)
-        .map_err(|e| anyhow::anyhow!("reading the written program back: {e}"))?;
-    let playback = Playback::new(&moves, &sim, &timeline);
-    let stamp = |s: u32| if s == 0 { 0 } else { timeline.stamp(s) };
-    let program = ProgramScene {
-        machine,
-        scene: &job.scene,
-        playback: &playback,
-        stamp: &stamp,
-        bodies: &machine_bodies(machine)?,
-    };
-    let (glb, pictures) = seen_side_by_side(&program, margin, show);
-    let html = page(&Seen {
-        playback: &playback,
-        pictures: &pictures,
-    });
-    Ok((glb, html))
-}
-
-/// Everything `plan` may write into its output folder: a run replaces
-/// all of it, so no earlier run's report or plots stay beside a new
-/// program.
-const PLAN_OUTPUTS: [&str; 7] = [
-    "toolpath.gcode",
-    "plan.csv",
-    "report.json",
-    "scene.glb",
-    "program.glb",
-    "report.html",
-    "plots",
-];
-
-/// Write `files` into the output folder `out` at once: a failed run
-/// leaves nothing, and no output of an earlier run stays
-/// ([`write_output_set`]).
-fn write_output(out: &Path, files: &[FolderFile]) -> Result<()> {
-    let parent = out
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
-    std::fs::create_dir_all(parent).map_err(|e| {
-        UsageError(format!(
-            "{}: cannot create the output folder ({e})",
-            parent.display()
-        ))
-    })?;
-    write_output_set(out, files, &PLAN_OUTPUTS)
-        .map_err(|e| UsageError(format!("{}: cannot write ({e})", out.display())))?;
-    Ok(())
 }
 
 /// The entries of the output folder `files` make (a file, or a folder

@@ -90,6 +90,18 @@ impl Reporter {
     }
 }
 
+impl maamplan::report::plan_files::StageSink for Reporter {
+    fn begin(&self, what: &str) {
+        Reporter::begin(self, what);
+    }
+    fn stage_line(&self, name: &str, seconds: f64, queries: Option<u64>) {
+        Reporter::stage_line(self, name, seconds, queries);
+    }
+    fn note(&self, line: &str) {
+        Reporter::note(self, line);
+    }
+}
+
 impl Drop for Reporter {
     /// An error ends the run with the bar cleared, not frozen.
     fn drop(&mut self) {

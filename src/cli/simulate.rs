@@ -3,16 +3,13 @@
 //! would run it; the wiring of [`maamplan::simulate`]'s stages.
 
 use super::progress::Reporter;
-use super::seen_side_by_side;
 use super::{check_output, machine_and_margin, RunArgs, SceneArgs, Talk};
 use anyhow::{Context, Result};
 use clap::Args;
 use maamplan::default_job::default_head;
-use maamplan::geometry::Mesh;
 use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_output_set;
-use maamplan::job::scene_config;
 use maamplan::kinematics::Machine;
 use maamplan::plan::{head_reach, PlanOptions, Progress};
 use maamplan::report::html::{simulation_html, ReportContext, Seen};
@@ -23,7 +20,8 @@ use maamplan::report::part_line;
 use maamplan::report::playback::Playback;
 use maamplan::report::plots::simulation_figures;
 use maamplan::report::program_glb::ProgramScene;
-use maamplan::scene::{BeadSettings, Scene};
+use maamplan::report::watch::seen_side_by_side;
+use maamplan::scene::Scene;
 use maamplan::simulate::{self, ProblemKind, Simulation, Timeline};
 use maamplan::toolpath::Toolpath;
 use std::fmt::Write;
@@ -61,10 +59,8 @@ fn load_scene(
 ) -> Result<(String, Toolpath, Scene, Timeline)> {
     if a.scene.toolpath.is_some() {
         let job = a.scene.load(machine)?;
-        let mut scene = job.scene;
-        let timeline = simulate::timeline(machine, &job.toolpath, &program.moves);
-        scene.restamp(|s| timeline.stamp(s));
-        return Ok((job.source, job.toolpath, scene, timeline));
+        let s = simulate::against::job(job, machine, program);
+        return Ok((s.source, s.toolpath, s.scene, s.timeline));
     }
     let ignored = a.scene.toolpath_options();
     if !ignored.is_empty() && !a.talk.quiet {
@@ -77,30 +73,19 @@ fn load_scene(
         Some(p) => load_mesh(p)?,
         None => default_head(),
     };
-    let settings = BeadSettings::of_machine(machine);
-    let own = |platform: &Mesh| simulate::own_part(program, machine, platform, &settings);
-    let (platform, part) = match &a.scene.platform {
-        Some(p) => {
-            let platform = load_mesh(p)?;
-            let part = own(&platform);
-            (platform, part)
-        }
-        // A plate under the part: its toolpath says where that is.
-        None => {
-            let platform = simulate::platform_under(program, machine);
-            let part = own(&platform);
-            (platform, part)
-        }
+    let platform = match &a.scene.platform {
+        Some(p) => Some(load_mesh(p)?),
+        None => None,
     };
-    let scene = Scene::build_deposited(
-        &part.toolpath,
+    let s = simulate::against::own(
+        program,
+        machine,
         &head,
-        &platform,
-        &scene_config(a.scene.clearance, a.scene.part.model(), settings),
-        Some(part.groups),
+        platform,
+        a.scene.clearance,
+        a.scene.part.model(),
     )?;
-    let source = format!("the part it deposits ({})", scene.part.name());
-    Ok((source, part.toolpath, scene, part.timeline))
+    Ok((s.source, s.toolpath, s.scene, s.timeline))
 }
 
 /// Run `simulate`.

@@ -6,6 +6,7 @@
 //! comes closer to its surface than the query's margin (DESIGN.md).
 
 pub mod brute;
+pub mod choice;
 pub mod cpu;
 pub mod gpu;
 pub mod moves;
@@ -27,6 +28,10 @@ pub enum CollideError {
     /// The chosen backend cannot run here.
     #[error("{0}")]
     Unavailable(String),
+    /// The gpu backend was asked for and there is no adapter: the user
+    /// can fix that (a driver, or another backend).
+    #[error("--backend gpu: no GPU adapter found: install a Vulkan driver (on Debian/Ubuntu, mesa-vulkan-drivers gives the lavapipe software adapter) or use --backend cpu")]
+    NoGpu,
 }
 
 /// A batch collision evaluator.

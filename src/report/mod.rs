@@ -2,19 +2,22 @@
 //! (`scene_glb.rs`) and a self-contained HTML report (`html.rs`), all made
 //! from a [`Plan`] (or a [`crate::simulate::Simulation`]) with no extra
 //! tool; and what a program reads: the commands' JSON documents
-//! (`json.rs`) and a simulation's table of moves (`moves_csv.rs`).
+//! (`json.rs`) and a simulation's table of moves (`moves_csv.rs`); a
+//! plan's files rendered and written as one set (`plan_files.rs`).
 
 pub mod gltf;
 pub mod html;
 pub mod json;
 pub mod machine_bodies;
 pub mod moves_csv;
+pub mod plan_files;
 pub mod playback;
 pub mod plots;
 pub mod program_glb;
 pub mod render;
 pub mod scene_glb;
 pub mod snapshot;
+pub mod watch;
 
 use crate::kinematics::Machine;
 use crate::plan::cost::CostModel;

@@ -3,6 +3,8 @@
 //!
 //! Three stages, each a plain function:
 //!
+//! 0. [`against`]: the part the program is checked against (a job's, or
+//!    its own) and its timeline.
 //! 1. [`timeline()`]: read as [`crate::io::gcode_read::read_program`] reads
 //!    it, the program prints the toolpath's layer surfaces in its own
 //!    order; [`Timeline`] says which material exists during each line, and
@@ -18,6 +20,7 @@
 //! 3. [`report`]: each line measured ([`measure`]) and the problems listed
 //!    with their G-code lines, plus a summary.
 
+pub mod against;
 pub mod measure;
 pub mod own_part;
 pub mod timeline;
