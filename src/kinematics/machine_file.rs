@@ -720,6 +720,31 @@ mod tests {
     }
 
     #[test]
+    fn display_bodies_are_found_beside_the_machine_file_or_refused_at_their_line() {
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("cradle.obj"), "v 0 0 0\n").unwrap();
+        let p = dir.path().join("m.toml");
+        let body = "[[display]]\nmesh = \"cradle.obj\"\nmoves_with = \"cradle\"\n";
+        std::fs::write(&p, format!("margin = 0.1\n{body}")).unwrap();
+        let m = load_machine(&p).unwrap();
+        assert_eq!(m.display.len(), 1);
+        let beside = dir.path().join("cradle.obj");
+        assert_eq!(m.display[0].mesh, beside.to_string_lossy());
+        assert_eq!(m.display[0].moves_with, BodyMotion::Cradle);
+        // Missing: the error names the display section's line.
+        let text = format!("margin = 0.1\n{}", body.replace("cradle.obj", "gone.obj"));
+        let (e, line) = error_and_line(&text, "", "[[display]]");
+        assert!(
+            e.contains(&format!("m.toml:{line}:")) && e.contains("gone.obj"),
+            "{e}"
+        );
+        // A carriage of a rotary table on a machine without one.
+        let text = format!("configuration = \"II\"\n{body}");
+        let (e, _) = error_and_line(&text, "", "[[display]]");
+        assert!(e.contains("needs configuration III"), "{e}");
+    }
+
+    #[test]
     fn every_field_defaults() {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("m.toml");
