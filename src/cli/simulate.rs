@@ -294,14 +294,7 @@ fn summary_text(sim: &Simulation, verbose: bool) -> String {
         "printed waypoints         {:>8} of {}; program {:.0} s",
         s.printed_waypoints, s.waypoints, s.seconds
     );
-    for kind in [
-        ProblemKind::Collision,
-        ProblemKind::TipDeviation,
-        ProblemKind::TipSpeed,
-        ProblemKind::Swing,
-        ProblemKind::Blob,
-        ProblemKind::LongTravelTurn,
-    ] {
+    for kind in ProblemKind::ALL {
         let of: Vec<_> = sim.problems.iter().filter(|p| p.kind == kind).collect();
         if of.is_empty() {
             continue;

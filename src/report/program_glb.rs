@@ -87,19 +87,9 @@ fn rank(c: LineClass) -> u8 {
 /// Every class a line can have, in drawing order.
 fn all_classes() -> Vec<LineClass> {
     let mut v = vec![LineClass::Printing, LineClass::Travel];
-    v.extend(PROBLEM_KINDS.map(LineClass::Problem));
+    v.extend(ProblemKind::ALL.map(LineClass::Problem));
     v
 }
-
-/// Every problem kind.
-pub const PROBLEM_KINDS: [ProblemKind; 6] = [
-    ProblemKind::Collision,
-    ProblemKind::TipDeviation,
-    ProblemKind::TipSpeed,
-    ProblemKind::Swing,
-    ProblemKind::Blob,
-    ProblemKind::LongTravelTurn,
-];
 
 /// What `program.glb` shows.
 pub struct ProgramScene<'a> {
@@ -563,7 +553,7 @@ fn markers(b: &mut Builder, parent: usize, s: &ProgramScene) {
         vertices: v,
         triangles: t,
     };
-    for kind in PROBLEM_KINDS {
+    for kind in ProblemKind::ALL {
         let of: Vec<_> = p
             .problems
             .iter()

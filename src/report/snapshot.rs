@@ -11,7 +11,7 @@
 //! the part, with the nozzle pointing down the picture as on the machine.
 
 use super::playback::{LineClass, Playback};
-use super::program_glb::{class_color, ProgramScene, PROBLEM_KINDS};
+use super::program_glb::{class_color, ProgramScene};
 use super::render::{png, Camera, DrawList, Renderer};
 use crate::geometry::tri_tri_distance::tri_tri_closer_than;
 use crate::geometry::{Pose, V3};
@@ -116,7 +116,7 @@ pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
 fn problem_pictures(r: &Renderer, s: &ProgramScene, margin: f32) -> Result<Vec<Picture>, String> {
     let p = s.playback;
     let mut out = Vec::new();
-    for kind in PROBLEM_KINDS {
+    for kind in ProblemKind::ALL {
         let shown = if kind == ProblemKind::Collision {
             COLLISIONS_PICTURED
         } else {

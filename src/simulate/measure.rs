@@ -139,6 +139,18 @@ pub enum ProblemKind {
     LongTravelTurn,
 }
 
+impl ProblemKind {
+    /// Every kind, in the order reports list them.
+    pub const ALL: [ProblemKind; 6] = [
+        ProblemKind::Collision,
+        ProblemKind::TipDeviation,
+        ProblemKind::TipSpeed,
+        ProblemKind::Swing,
+        ProblemKind::Blob,
+        ProblemKind::LongTravelTurn,
+    ];
+}
+
 /// One problem, at its G-code line.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Problem {
