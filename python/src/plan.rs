@@ -163,6 +163,7 @@ pub fn plan(
     stages.extend(p.stages.iter().map(|s| (s.name.clone(), s.seconds)));
     Ok(Plan {
         seconds: t0.elapsed().as_secs_f64(),
+        margin: margin.unwrap_or(machine.margin),
         job,
         plan: p,
         machine,
@@ -177,6 +178,8 @@ pub fn plan(
 /// command line's files on `write(dir)`.
 #[pyclass(frozen, module = "maamplan")]
 pub struct Plan {
+    /// The safety margin planned at (the report's pictures check at it).
+    margin: f64,
     job: LoadedJob,
     plan: Planned,
     machine: Machine,
@@ -383,7 +386,7 @@ impl Plan {
 
     /// Write the command line's outputs into folder `dir` at once:
     /// toolpath.gcode, plan.csv, report.json and, with `plots`,
-    /// scene.glb, report.html and plots/ (an earlier run's are replaced).
+    /// scene.glb, program.glb, report.html and plots/ (an earlier run's are replaced).
     /// Returns `dir`.
     #[pyo3(signature = (dir, plots=true))]
     fn write(&self, py: Python<'_>, dir: PathBuf, plots: bool) -> PyResult<PathBuf> {
@@ -402,7 +405,7 @@ impl Plan {
                 &self.job,
                 &context,
                 self.seconds,
-                plots.then_some(self.machine.margin),
+                plots.then_some(self.margin),
                 &(),
             )?;
             let mut stages = self.stages.clone();

@@ -60,6 +60,11 @@ def test_plan_gives_plan_csv(tmp_path):
     assert (written / "plan.csv").read_text() == expected
     body = lambda p: [l for l in p.read_text().splitlines() if not l.startswith(";")]
     assert body(written / "toolpath.gcode") == body(out / "toolpath.gcode")
+    # With plots, the command line's report files too, the program scene among them.
+    report = plan.write(tmp_path / "report")
+    for name in ("scene.glb", "program.glb", "report.html", "plots"):
+        assert (report / name).exists(), name
+    assert (report / "program.glb").read_bytes()[:4] == b"glTF"
 
 
 def test_simulate_finds_the_reference_gcodes_collisions(tmp_path):
