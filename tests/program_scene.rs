@@ -195,8 +195,21 @@ fn the_head_stands_at_each_colliding_line_at_the_time_the_page_gives() {
     let program = load_program(&reference(), &m).unwrap();
     let pictures = pictures();
     let (head, table) = (a.node("head"), a.node("table"));
+    let report = read_json(&simulated().join("report.json"));
     for line in COLLIDING {
         let (time, _) = pictures[&("collision".to_string(), line)];
+        // report.json gives the same moment.
+        let listed = report["problems"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|p| p["line"] == line && p["kind"] == "collision")
+            .and_then(|p| p["time_s"].as_f64())
+            .unwrap();
+        assert!(
+            (listed - time).abs() < 1e-3,
+            "line {line}: {listed} s in report.json"
+        );
         let rel = a.world(table, time as f32).inverse() * a.world(head, time as f32);
         let mv = program.moves.iter().find(|mv| mv.line == line).unwrap();
         let pose = m.pose(&axes_of(&mv.to));

@@ -128,11 +128,12 @@ pub fn simulation_report(machine: &Machine, sim: &Simulation, run: &SimulationRu
         "backend": run.backend,
         "machine": machine,
         "summary": sim.summary,
-        "problems": sim.problems.iter().map(|p| json!({
+        "problems": sim.problems.iter().zip(sim.problem_times()).map(|(p, time)| json!({
             "line": p.line,
             "kind": p.kind,
             "value": p.value,
             "layer": p.layer.map(layer_name),
+            "time_s": time,
         })).collect::<Vec<_>>(),
         "seconds": run.seconds,
         "command": run.command,

@@ -53,15 +53,7 @@ pub struct Playback<'a> {
 impl<'a> Playback<'a> {
     /// The playback of `moves` as `sim` measured them over `timeline`.
     pub fn new(moves: &'a [GcodeMove], sim: &'a Simulation, timeline: &'a Timeline) -> Self {
-        let mut t = 0.0;
-        let ends = sim
-            .moves
-            .iter()
-            .map(|r| {
-                t += r.seconds;
-                t
-            })
-            .collect();
+        let ends = sim.ends();
         let cutoffs = &timeline.cutoffs[..];
         let n = cutoffs.len();
         let mut most = 0u32;

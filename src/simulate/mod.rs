@@ -100,6 +100,34 @@ pub struct Simulation {
     pub moves: Vec<MoveReport>,
 }
 
+impl Simulation {
+    /// Per measured line, the program time at its end (s): the sum of
+    /// the durations up to it, the time `program.glb` shows it at.
+    pub fn ends(&self) -> Vec<f64> {
+        let mut t = 0.0;
+        self.moves
+            .iter()
+            .map(|r| {
+                t += r.seconds;
+                t
+            })
+            .collect()
+    }
+
+    /// The program time at which each problem's line ends, in the
+    /// problems' order.
+    pub fn problem_times(&self) -> Vec<f64> {
+        let ends = self.ends();
+        self.problems
+            .iter()
+            .map(|p| {
+                let i = self.moves.partition_point(|r| r.line < p.line);
+                ends.get(i).copied().unwrap_or(0.0)
+            })
+            .collect()
+    }
+}
+
 /// `m` interpolating as its joint dialect, and as tool-centre-point
 /// control: the two ways a line of a program can move.
 pub fn machines(m: &Machine) -> (Machine, Machine) {
