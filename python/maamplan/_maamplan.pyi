@@ -208,7 +208,7 @@ class Simulation:
     def colliding_lines(self) -> npt.NDArray[np.int64]: ...
     @property
     def problems(self) -> list[dict[str, Any]]:
-        """``line``, ``kind``, ``value``, ``layer`` per problem."""
+        """``line``, ``kind``, ``value``, ``layer`` and ``time_s`` (its time in program.glb) per problem."""
     @property
     def summary(self) -> dict[str, Any]: ...
     @property

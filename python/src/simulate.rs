@@ -282,13 +282,17 @@ impl Simulation {
 
     /// Every problem: dicts with `line`, `kind` ("collision",
     /// "tip_deviation", "tip_speed", "swing", "blob",
-    /// "long_travel_turn"), `value` and `layer`.
+    /// "long_travel_turn"), `value`, `layer` and `time_s` (when its line
+    /// ends, the time `program.glb` shows it at).
     #[getter]
     fn problems(&self, py: Python<'_>) -> PyResult<Py<PyAny>> {
-        json(
-            py,
-            &serde_json::to_value(&self.sim.problems).expect("serialises"),
-        )
+        let mut all = serde_json::to_value(&self.sim.problems).expect("serialises");
+        if let Some(list) = all.as_array_mut() {
+            for (p, t) in list.iter_mut().zip(self.sim.problem_times()) {
+                p["time_s"] = serde_json::json!(t);
+            }
+        }
+        json(py, &all)
     }
 
     /// The summary's figures as a dict.

@@ -77,6 +77,8 @@ def test_simulate_finds_the_reference_gcodes_collisions(tmp_path):
                             platform=SIMPLE["platform"], backend="cpu")
     lines = sim.colliding_lines.tolist()
     assert lines == expected
+    times = {p["line"]: p["time_s"] for p in cli_json(out / "report.json")["problems"]}
+    assert all(abs(p["time_s"] - times[p["line"]]) < 1e-9 for p in sim.problems)
     assert {25844, 35940, 36071} <= set(lines)
     assert len(sim.line) == sim.summary["moves"]
     assert [p["line"] for p in sim.problems if p["kind"] == "collision"] == lines
