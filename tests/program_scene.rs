@@ -327,7 +327,8 @@ fn the_simulation_page_renders_with_its_pictures_in_chromium() {
         return;
     };
     let magenta = |y: u32| {
-        (0..img.width()).any(|x| img.get_pixel(x, y).0 == [HIGHLIGHT[0], HIGHLIGHT[1], HIGHLIGHT[2]])
+        (0..img.width())
+            .any(|x| img.get_pixel(x, y).0 == [HIGHLIGHT[0], HIGHLIGHT[1], HIGHLIGHT[2]])
     };
     // Runs of rows holding the highlight, more than a picture's margin apart.
     let mut pictures = 0;
@@ -338,7 +339,10 @@ fn the_simulation_page_renders_with_its_pictures_in_chromium() {
         }
         last = Some(y);
     }
-    assert!(pictures >= 4, "{pictures} pictured collisions rendered on the page");
+    assert!(
+        pictures >= 4,
+        "{pictures} pictured collisions rendered on the page"
+    );
 }
 
 /// The data set's README, "The whole machine": for axes X Y Z B C a point
