@@ -195,17 +195,19 @@ impl Builder {
             js.push(b' ');
         }
         let total = 12 + 8 + js.len() + 8 + self.bin.len();
-        let mut out = Vec::with_capacity(total);
-        out.extend_from_slice(b"glTF");
-        out.extend_from_slice(&2u32.to_le_bytes());
-        out.extend_from_slice(&(total as u32).to_le_bytes());
-        out.extend_from_slice(&(js.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"JSON");
-        out.extend_from_slice(&js);
-        out.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
-        out.extend_from_slice(b"BIN\0");
-        out.extend_from_slice(&self.bin);
-        out
+        let mut head = Vec::with_capacity(total - self.bin.len());
+        head.extend_from_slice(b"glTF");
+        head.extend_from_slice(&2u32.to_le_bytes());
+        head.extend_from_slice(&(total as u32).to_le_bytes());
+        head.extend_from_slice(&(js.len() as u32).to_le_bytes());
+        head.extend_from_slice(b"JSON");
+        head.extend_from_slice(&js);
+        head.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
+        head.extend_from_slice(b"BIN\0");
+        // The buffer is most of the file: the header goes in front of it
+        // rather than the buffer being copied after the header.
+        self.bin.splice(0..0, head);
+        self.bin
     }
 }
 

@@ -51,6 +51,9 @@ const PLATFORM: [u8; 4] = [165, 168, 180, 255];
 /// Poses sampled along a colliding line.
 const SAMPLES: usize = 17;
 
+/// How far around a picture's subject material is drawn, in view radii.
+const SHOWN: f32 = 1.6;
+
 /// Widest band searched for what a colliding line meets (mm).
 const MAX_BAND: f32 = 8.0;
 
@@ -268,8 +271,18 @@ fn problem_view(
         .iter()
         .map(|&v| Vec3::from(v).length())
         .fold(0.0, f32::max);
-    let radius = reach + (b - a).length() / 2.0 + MAX_BAND;
-    let part = material(s, i, (a + b) / 2.0, radius);
+    // What the head can meet along a colliding line; else what the
+    // picture shows around the line's end.
+    let part = if kind == ProblemKind::Collision {
+        material(
+            s,
+            i,
+            (a + b) / 2.0,
+            reach + (b - a).length() / 2.0 + MAX_BAND,
+        )
+    } else {
+        material(s, i, b, SHOWN * VIEW_RADIUS)
+    };
     let moment = if kind == ProblemKind::Collision {
         meeting(s, &part, margin, |t| m.pose_along(&from, &to, t))
     } else {
@@ -295,7 +308,7 @@ fn problem_view(
         .map(|&v| (Vec3::from(v) - target).length())
         .fold(0.0, f32::max);
     let radius = VIEW_RADIUS.max(spread + 4.0);
-    let mut list = scene_at(s, &part, &moment, target, 1.6 * radius);
+    let mut list = scene_at(s, &part, &moment, target, SHOWN * radius);
     // The line's own path, in its problem's colour.
     let color = class_color(LineClass::Problem(kind)).map(|c| (c * 255.0) as u8);
     let path: Vec<V3> = (0..=8)
