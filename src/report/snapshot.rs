@@ -13,9 +13,11 @@
 use super::playback::{LineClass, Playback};
 use super::program_glb::{class_color, ProgramScene};
 use super::render::{png, Camera, DrawList, Renderer};
+use crate::geometry::aabb::point_box_distance;
 use crate::geometry::tri_tri_distance::tri_tri_closer_than;
-use crate::geometry::{Pose, V3};
+use crate::geometry::{Aabb, Pose, V3};
 use crate::io::gcode_read::axes_of;
+use crate::plan::head_reach;
 use crate::simulate::{machines, ProblemKind};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -118,6 +120,14 @@ pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
 /// The first problems of each kind, pictured.
 fn problem_pictures(r: &Renderer, s: &ProgramScene, margin: f32) -> Result<Vec<Picture>, String> {
     let p = s.playback;
+    let part = bounds(
+        s.scene
+            .groups
+            .iter()
+            .filter(|g| g.layer.is_some())
+            .flat_map(|g| g.mesh.vertices.iter()),
+    );
+    let part_center = (part != Aabb::EMPTY).then(|| Vec3::from(part.center()));
     let mut out = Vec::new();
     for kind in ProblemKind::ALL {
         let shown = if kind == ProblemKind::Collision {
@@ -129,7 +139,7 @@ fn problem_pictures(r: &Renderer, s: &ProgramScene, margin: f32) -> Result<Vec<P
             let Some(i) = p.index_of_line(q.line) else {
                 continue;
             };
-            let (list, camera, highlighted) = problem_view(s, i, kind, margin);
+            let (list, camera, highlighted) = problem_view(s, i, kind, margin, part_center);
             let rgba = r.draw(&list, &camera, SIZE.0, SIZE.1)?;
             out.push(Picture {
                 line: q.line,
@@ -149,7 +159,7 @@ struct Material {
     /// Triangles (corners, part frame).
     tris: Vec<[V3; 3]>,
     /// Their bounds.
-    boxes: Vec<(V3, V3)>,
+    boxes: Vec<Aabb>,
     /// Which are the platform's.
     platform: Vec<bool>,
 }
@@ -158,7 +168,7 @@ struct Material {
 /// `radius` of `center`.
 fn material(s: &ProgramScene, i: usize, center: Vec3, radius: f32) -> Material {
     let cutoff = s.playback.cutoffs[i];
-    let found: Vec<([V3; 3], (V3, V3), bool)> = s
+    let found: Vec<([V3; 3], Aabb, bool)> = s
         .scene
         .groups
         .par_iter()
@@ -168,11 +178,10 @@ fn material(s: &ProgramScene, i: usize, center: Vec3, radius: f32) -> Material {
                     return None;
                 }
                 let tri = g.mesh.corners(t);
-                let (lo, hi) = bounds(tri.iter());
-                let nearest = Vec3::from(lo).max(center.min(Vec3::from(hi)));
-                ((nearest - center).length() <= radius).then_some((
+                let b = bounds(tri.iter());
+                (point_box_distance(center.to_array(), b.min, b.max) <= radius).then_some((
                     tri,
-                    (lo, hi),
+                    b,
                     g.layer.is_none(),
                 ))
             })
@@ -189,16 +198,16 @@ fn material(s: &ProgramScene, i: usize, center: Vec3, radius: f32) -> Material {
 /// triangles within `margin` of the `head`'s, and the head's within
 /// `margin` of the part's.
 fn contacts(head: &[[V3; 3]], part: &Material, margin: f32) -> (Vec<usize>, Vec<usize>) {
-    let (lo, hi) = bounds(head.iter().flatten());
-    let apart = |(a, b): (V3, V3), (c, d): (V3, V3)| {
-        (0..3).any(|k| a[k] > d[k] + margin || b[k] < c[k] - margin)
+    let whole = bounds(head.iter().flatten());
+    let apart = |a: Aabb, b: Aabb| {
+        (0..3).any(|k| a.min[k] > b.max[k] + margin || a.max[k] < b.min[k] - margin)
     };
-    let head_boxes: Vec<(V3, V3)> = head.iter().map(|t| bounds(t.iter())).collect();
+    let head_boxes: Vec<Aabb> = head.iter().map(|t| bounds(t.iter())).collect();
     let per_part: Vec<(usize, Vec<usize>)> = (0..part.tris.len())
         .into_par_iter()
         .filter_map(|t| {
             let bt = part.boxes[t];
-            if apart(bt, (lo, hi)) {
+            if apart(bt, whole) {
                 return None;
             }
             let [a, b, c] = part.tris[t];
@@ -219,17 +228,9 @@ fn contacts(head: &[[V3; 3]], part: &Material, margin: f32) -> (Vec<usize>, Vec<
     (part_hits, head_hits)
 }
 
-/// Corner-wise bounds of points.
-fn bounds<'a>(pts: impl Iterator<Item = &'a V3>) -> (V3, V3) {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in pts {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
+/// The box around points.
+fn bounds<'a>(pts: impl Iterator<Item = &'a V3>) -> Aabb {
+    pts.fold(Aabb::EMPTY, |b, p| b.grow(*p))
 }
 
 /// The head's triangles at `pose` (part frame).
@@ -255,6 +256,7 @@ fn problem_view(
     i: usize,
     kind: ProblemKind,
     margin: f32,
+    part_center: Option<Vec3>,
 ) -> (DrawList, Camera, usize) {
     let mv = &s.playback.moves[i];
     let (joint, tcp) = machines(s.machine);
@@ -263,14 +265,7 @@ fn problem_view(
     // Whatever the head can reach along the line.
     let tip = |a| Vec3::from(m.tip(a).map(|x| x as f32));
     let (a, b) = (tip(&from), tip(&to));
-    let reach = s
-        .scene
-        .head
-        .mesh
-        .vertices
-        .iter()
-        .map(|&v| Vec3::from(v).length())
-        .fold(0.0, f32::max);
+    let reach = head_reach(s.scene) as f32;
     // What the head can meet along a colliding line; else what the
     // picture shows around the line's end.
     let part = if kind == ProblemKind::Collision {
@@ -319,7 +314,12 @@ fn problem_view(
     }
     let pose = &moment.pose;
     let axis = Vec3::from(pose.axis()).normalize();
-    let camera = Camera::framing(target, radius, side_view(s, target, axis, pose), axis);
+    let camera = Camera::framing(
+        target,
+        radius,
+        side_view(part_center, target, axis, pose),
+        axis,
+    );
     (list, camera, hits.len())
 }
 
@@ -388,20 +388,8 @@ fn scene_at(s: &ProgramScene, part: &Material, at: &Moment, target: Vec3, radius
 
 /// A direction to look from at `target`: across the nozzle `axis`, from
 /// the side of the part `target` is on, a little from above.
-fn side_view(s: &ProgramScene, target: Vec3, axis: Vec3, pose: &Pose) -> Vec3 {
-    let (lo, hi) = bounds(
-        s.scene
-            .groups
-            .iter()
-            .filter(|g| g.layer.is_some())
-            .flat_map(|g| g.mesh.vertices.iter()),
-    );
-    let center = if lo[0].is_finite() {
-        (Vec3::from(lo) + Vec3::from(hi)) / 2.0
-    } else {
-        target
-    };
-    let out = target - center;
+fn side_view(part_center: Option<Vec3>, target: Vec3, axis: Vec3, pose: &Pose) -> Vec3 {
+    let out = target - part_center.unwrap_or(target);
     let mut side = out - axis * out.dot(axis);
     if side.length() < 1e-3 {
         side = Vec3::from(pose.cols[0]);
@@ -434,9 +422,9 @@ fn overview(s: &ProgramScene) -> (DrawList, Camera) {
     let printed = (0..tips.len())
         .filter(|&i| p.moves[i].extrudes())
         .map(|i| &tips[i]);
-    let (lo, hi) = bounds(printed);
-    let (lo, hi) = if lo[0].is_finite() {
-        (Vec3::from(lo), Vec3::from(hi))
+    let printed = bounds(printed);
+    let (lo, hi) = if printed != Aabb::EMPTY {
+        (Vec3::from(printed.min), Vec3::from(printed.max))
     } else {
         (Vec3::ZERO, Vec3::ONE)
     };
