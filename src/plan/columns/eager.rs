@@ -1,16 +1,24 @@
 //! The eager search of the columns ([`super::Columns::search_harder`]):
-//! for a waypoint whose first round of variants all collide, wider rounds,
-//! then every orientation the machine can reach, each offered a wave at a
-//! time until the column holds a free configuration. Its last resort
-//! lists many more directions than a column keeps, so it stops asking a
-//! waypoint once its column is full ([`super::Columns::offer_until_full`]).
+//! for a waypoint whose first round of variants all collide, the free
+//! orientations of its neighbours first — runs of such waypoints are
+//! probed, and the probes searched before the waypoints between them —
+//! then wider rounds, then every orientation the machine can reach, each
+//! offered a wave at a time until the column holds a free configuration.
+//! Its last resort lists many more directions than a column keeps, so it
+//! stops asking a waypoint once its column is full
+//! ([`super::Columns::offer_until_full`]).
 
-use super::Columns;
+use super::{probe_positions, Columns, Status};
 use crate::kinematics::{ik_angles, orientation};
 use crate::plan::{candidates, PlanError};
 use crate::prove::Prover;
+use crate::scene::cutoff;
 use glam::DVec3;
+use rayon::prelude::*;
 use std::ops::Range;
+
+/// An IK pair `[solution, mirror]` of `(tilt, C)` offered to a waypoint.
+type Offer = (usize, [(f64, f64); 2]);
 
 impl Columns<'_> {
     /// [`Columns::offer`] for items that list each waypoint's candidates
@@ -66,23 +74,155 @@ impl Columns<'_> {
         }
     }
 
-    /// The eager search for waypoints whose columns hold nothing live:
-    /// wider rounds of variants, then every orientation the machine can
-    /// reach (5° apart), nearest first in shells of 30°, each asked until
-    /// the column holds a free configuration. Waypoints still without one
-    /// are left with empty columns (the caller skips them).
+    /// The eager search for waypoints whose columns hold nothing live,
+    /// run by run of consecutive ones ([`Columns::search_seeded`]); those
+    /// it leaves empty get the configurations their columns hold aside
+    /// ([`Columns::promote`]), or stay empty (the caller skips them).
     pub(in crate::plan) fn search_harder(
         &mut self,
         prover: &Prover,
         open: &[usize],
     ) -> Result<(), PlanError> {
-        let mut open = open.to_vec();
+        let mut sorted = open.to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        self.ask_tight(prover, &sorted)?;
+        let lists: Vec<Vec<usize>> = self
+            .consecutive(&sorted)
+            .into_iter()
+            .map(|r| r.collect())
+            .collect();
+        self.search_seeded(prover, &lists)?;
+        for g in sorted {
+            if self.live_count(g) == 0 {
+                self.promote(g, &[Status::Unlikely, Status::Tight]);
+            }
+        }
+        Ok(())
+    }
+
+    /// The own configurations that `open`'s columns hold aside as
+    /// [`Status::Tight`], asked at the pose margin: one that only grazes
+    /// is free, and taken before the eager search looks farther from the
+    /// waypoint's own orientation; one that collides dies.
+    fn ask_tight(&mut self, prover: &Prover, open: &[usize]) -> Result<(), PlanError> {
+        let mut which: Vec<(usize, u32)> = Vec::new();
+        let mut items = Vec::new();
+        for &g in open {
+            for (a, n) in self.configs[g].iter().zip(&self.nodes[g]) {
+                if n.status == Status::Tight && which.last() != Some(&(g, n.pose)) {
+                    which.push((g, n.pose));
+                    items.push((*a, cutoff(g)));
+                }
+            }
+        }
+        let hits = prover.poses(&items)?;
+        for (&(g, pose), hit) in which.iter().zip(hits) {
+            for n in self.nodes[g].iter_mut().filter(|n| n.pose == pose) {
+                n.status = if hit { Status::Hit } else { Status::Free };
+            }
+        }
+        Ok(())
+    }
+
+    /// The eager search for `lists` of neighbouring waypoints, probed as
+    /// the first round is ([`super::PROBE_EVERY`]): the probes are
+    /// searched first (the same way, among themselves, so only every
+    /// [`super::PROBE_EVERY`]-th of them is searched on its own), and
+    /// every other waypoint is offered the free orientations of the
+    /// probes on either side of it, nearest its own first — where a
+    /// waypoint's first round all collides (a steep part), its
+    /// neighbours' free orientations lie far out, and finding them anew
+    /// costs a hundred queries a waypoint. One whose offers all collide
+    /// is offered its list neighbours' free orientations, and then
+    /// searched on its own ([`Columns::search_wide`]).
+    fn search_seeded(&mut self, prover: &Prover, lists: &[Vec<usize>]) -> Result<(), PlanError> {
+        let probes: Vec<Vec<usize>> = lists.iter().map(|l| probe_positions(l.len())).collect();
+        let (n, probed) = (
+            lists.iter().map(Vec::len).sum::<usize>(),
+            probes.iter().map(Vec::len).sum::<usize>(),
+        );
+        if probed == n {
+            return self.search_wide(prover, lists.concat());
+        }
+        let coarse: Vec<Vec<usize>> = lists
+            .iter()
+            .zip(&probes)
+            .map(|(l, p)| p.iter().map(|&i| l[i]).collect())
+            .collect();
+        self.search_seeded(prover, &coarse)?;
+        // Between probes: seeded by the probes on either side.
+        let mut spans = Vec::new();
+        for (l, p) in lists.iter().zip(&probes) {
+            for w in p.windows(2) {
+                spans.push((l[w[0]], l[w[1]], l[w[0] + 1..w[1]].to_vec()));
+            }
+        }
+        let mut open: Vec<usize> = spans.iter().flat_map(|s| s.2.iter().copied()).collect();
+        self.offer_to_open(prover, &self.seeded(&spans), &mut open)?;
+        // Still empty: seeded by their own neighbours, most of which
+        // found room.
+        let mut spans = Vec::new();
+        for l in lists {
+            for (i, &g) in l.iter().enumerate() {
+                if open.binary_search(&g).is_ok() {
+                    let (a, b) = (l[i.saturating_sub(1)], l[(i + 1).min(l.len() - 1)]);
+                    spans.push((a, b, vec![g]));
+                }
+            }
+        }
+        self.offer_to_open(prover, &self.seeded(&spans), &mut open)?;
+        self.search_wide(prover, open)
+    }
+
+    /// Wider rounds of variants for the waypoints of `open`, then, for
+    /// those still without a live configuration, every orientation the
+    /// machine can reach (5° apart), nearest first in shells of 30°, each
+    /// asked until the column holds a free configuration.
+    pub(super) fn search_wide(
+        &mut self,
+        prover: &Prover,
+        mut open: Vec<usize>,
+    ) -> Result<(), PlanError> {
+        open.retain(|&g| self.live_count(g) == 0);
         self.wider_rounds(prover, &mut open)?;
         // Last resort before giving a waypoint up.
         if !open.is_empty() {
             self.every_reachable(prover, &mut open)?;
         }
         Ok(())
+    }
+
+    /// Per `(a, b, targets)`: each target offered the orientations free at
+    /// waypoints `a` and `b`, nearest its own first, as IK pairs.
+    fn seeded(&self, spans: &[(usize, usize, Vec<usize>)]) -> Vec<Offer> {
+        let rot = self.setup.machine.rotary;
+        let free_dirs = |h: usize, dirs: &mut Vec<DVec3>| {
+            for (a, n) in self.configs[h].iter().zip(&self.nodes[h]) {
+                let d = DVec3::from(orientation(rot, a.tilt, a.c));
+                // (Windings and mirror solutions point the same way.)
+                if n.status == Status::Free && dirs.iter().all(|e| e.dot(d) < 1.0 - 1e-12) {
+                    dirs.push(d);
+                }
+            }
+        };
+        let per_span: Vec<Vec<Offer>> = spans
+            .par_iter()
+            .map(|(a, b, targets)| {
+                let mut seeds = Vec::new();
+                free_dirs(*a, &mut seeds);
+                free_dirs(*b, &mut seeds);
+                let mut items = Vec::new();
+                for &g in targets {
+                    let c = DVec3::from(self.centre[g]);
+                    let mut near = seeds.clone();
+                    near.sort_by(|x, y| c.dot(*y).total_cmp(&c.dot(*x)));
+                    items.extend(near.into_iter().map(|d| (g, ik_angles(rot, d.to_array()))));
+                }
+                items
+            })
+            .collect();
+        per_span.concat()
     }
 
     /// The rounds of variants after the first, widened 10 % each, until

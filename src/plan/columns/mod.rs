@@ -12,9 +12,11 @@
 //! ([`super::graph`]). A node found colliding stays in its column (so
 //! node indices keep their meaning) but dies, and the next variant enters
 //! the window. A column whose first round dies out gets the eager search
-//! ([`Columns::search_harder`]): wider rounds, then every reachable
-//! orientation in shells, asked until the column holds a free
-//! configuration; a waypoint with none is skipped.
+//! ([`Columns::search_harder`]): the free orientations of its neighbours
+//! (where every variant near a waypoint's own orientation collides, they
+//! lie far out, and its neighbours found them already), then wider
+//! rounds, then every reachable orientation in shells, asked until the
+//! column holds a free configuration; a waypoint with none is skipped.
 //!
 //! Clearance first: a waypoint whose own orientation falls short of what
 //! its beads need of it gets variants as if it collided, whether it
@@ -98,6 +100,16 @@ pub(super) struct Node {
 
 /// The cursor of a column with no variants left to enter its window.
 pub(super) const EXHAUSTED: u32 = u32::MAX;
+
+/// The probes among `n` neighbouring waypoints, by position: the ends and
+/// every [`PROBE_EVERY`]-th.
+fn probe_positions(n: usize) -> Vec<usize> {
+    let mut at: Vec<usize> = (0..n).step_by(PROBE_EVERY).collect();
+    if n > 0 && !(n - 1).is_multiple_of(PROBE_EVERY) {
+        at.push(n - 1);
+    }
+    at
+}
 
 /// Waypoints whose next configurations [`Columns::refill`] finds at once.
 const REFILL_BLOCK: usize = 1 << 14;
@@ -319,6 +331,14 @@ impl<'a> Columns<'a> {
     /// Empty columns over `setup`.
     fn new(setup: &'a Setup<'a>) -> Self {
         let n_wp = setup.waypoints();
+        let (toolpath, rot) = (setup.toolpath, setup.machine.rotary);
+        // The orientation each waypoint is planned around.
+        let centre = (0..n_wp)
+            .map(|g| {
+                toolpath.singular_angles[g]
+                    .map_or(toolpath.smoothed_dirs[g], |(t, c)| orientation(rot, t, c))
+            })
+            .collect();
         Columns {
             setup,
             configs: vec![Vec::new(); n_wp],
@@ -328,7 +348,7 @@ impl<'a> Columns<'a> {
             free_at: vec![u128::MAX; n_wp],
             probed: vec![false; n_wp],
             offered: vec![false; n_wp],
-            centre: Vec::new(),
+            centre,
             skip: vec![None; n_wp],
         }
     }
@@ -347,15 +367,7 @@ impl<'a> Columns<'a> {
     fn build_by(setup: &'a Setup<'a>, prover: &Prover, block: usize) -> Result<Self, PlanError> {
         let mut columns = Self::new(setup);
         let toolpath = setup.toolpath;
-        let rot = setup.machine.rotary;
         let n = setup.waypoints();
-        // The orientation each waypoint is planned around.
-        columns.centre = (0..n)
-            .map(|g| {
-                toolpath.singular_angles[g]
-                    .map_or(toolpath.smoothed_dirs[g], |(t, c)| orientation(rot, t, c))
-            })
-            .collect();
         let base: Vec<(usize, [(f64, f64); 2])> = (0..n).map(|g| (g, setup.own_pair(g))).collect();
         columns.offered = columns.offer(prover, &base, true)?;
         // (The batch's temporaries, freed among the new columns: see
@@ -396,28 +408,11 @@ impl<'a> Columns<'a> {
     /// probes on either side of it as its plausible ones
     /// ([`Columns::plausible`]).
     fn probe(&mut self, prover: &Prover, open: &[usize]) -> Result<(), PlanError> {
-        let run_of = {
-            let mut r = vec![0u32; self.setup.toolpath.pos.len()];
-            for (k, run) in self.setup.toolpath.runs.iter().enumerate() {
-                r[run.clone()].fill(k as u32);
-            }
-            r
-        };
-        // Maximal runs of consecutive open waypoints.
-        let mut groups: Vec<Range<usize>> = Vec::new();
-        for &g in open {
-            match groups.last_mut() {
-                Some(r) if r.end == g && run_of[g - 1] == run_of[g] => r.end = g + 1,
-                _ => groups.push(g..g + 1),
-            }
-        }
-        let mut probes = Vec::new();
-        for r in &groups {
-            probes.extend(r.clone().step_by(PROBE_EVERY));
-            if (r.len() - 1) % PROBE_EVERY != 0 {
-                probes.push(r.end - 1);
-            }
-        }
+        let groups = self.consecutive(open);
+        let probes: Vec<usize> = groups
+            .iter()
+            .flat_map(|r| probe_positions(r.len()).into_iter().map(|i| r.start + i))
+            .collect();
         // Every first-round variant of every probe, asked at once (a
         // half-turn-symmetric head's pair as one query).
         let firsts: Vec<Vec<[(f64, f64); 2]>> =
@@ -485,6 +480,25 @@ impl<'a> Columns<'a> {
             }
         }
         Ok(())
+    }
+
+    /// The maximal runs of consecutive waypoints of `which` (sorted)
+    /// within one continuous run of the toolpath.
+    fn consecutive(&self, which: &[usize]) -> Vec<Range<usize>> {
+        let runs = &self.setup.toolpath.runs;
+        let mut run = 0;
+        let mut groups: Vec<Range<usize>> = Vec::new();
+        for &g in which {
+            let same_run = runs.get(run).is_some_and(|r| r.contains(&g));
+            if !same_run {
+                run = runs.partition_point(|r| r.end <= g);
+            }
+            match groups.last_mut() {
+                Some(r) if same_run && r.end == g => r.end = g + 1,
+                _ => groups.push(g..g + 1),
+            }
+        }
+        groups
     }
 
     /// Is the variant `item` (`2 · item + solution`) of waypoint `g` worth
@@ -594,9 +608,11 @@ impl<'a> Columns<'a> {
     /// Fill the windows of the lazily filled columns `which` up to the cap
     /// with unchecked variants from their cursors (the implausible ones
     /// enter too, [`Status::Unlikely`], but do not count). A column left
-    /// with nothing live and no variant to come has its implausible nodes
-    /// made plausible; returns those with none either (they need the
-    /// eager search).
+    /// with nothing live and no variant to come has its nodes held aside
+    /// promoted ([`Columns::promote`]), unless no variant was free at the
+    /// probes around it; returns those with nothing promoted (they need
+    /// the eager search, [`Columns::search_harder`], which promotes what
+    /// it cannot replace).
     pub(super) fn refill(&mut self, which: &[usize]) -> Vec<usize> {
         self.refill_by(which, REFILL_BLOCK)
     }
@@ -615,25 +631,34 @@ impl<'a> Columns<'a> {
             if self.live_count(g) > 0 || self.cursor[g] != EXHAUSTED {
                 continue;
             }
-            // Unasked variants first; then the waypoint's own
-            // configuration that fell short of its beads' need.
-            let mut promoted = false;
-            for from in [Status::Unlikely, Status::Tight] {
-                for n in &mut self.nodes[g] {
-                    if n.status == from {
-                        n.status = Status::Unknown;
-                        promoted = true;
-                    }
-                }
-                if promoted {
-                    break;
-                }
-            }
-            if !promoted {
+            // With no variant free at the probes around it, the eager
+            // search comes before what the column holds aside.
+            if self.free_at[g] == 0 || !self.promote(g, &[Status::Unlikely, Status::Tight]) {
                 empty.push(g);
             }
         }
         empty
+    }
+
+    /// Waypoint `g`'s column holds nothing live: its nodes held aside as
+    /// the first of `aside` that it has become unchecked (held aside:
+    /// the implausible variants, [`Status::Unlikely`], and its own
+    /// configuration that fell short of its beads' need,
+    /// [`Status::Tight`]). Returns whether any did.
+    fn promote(&mut self, g: usize, aside: &[Status]) -> bool {
+        for &from in aside {
+            let mut promoted = false;
+            for n in &mut self.nodes[g] {
+                if n.status == from {
+                    n.status = Status::Unknown;
+                    promoted = true;
+                }
+            }
+            if promoted {
+                return true;
+            }
+        }
+        false
     }
 
     /// Ask the unchecked nodes `asks`, `(waypoint, node, need)`: one query
@@ -912,6 +937,59 @@ mod tests {
         assert!(
             waved_queries * 4 < all_queries,
             "{waved_queries} queries in waves, {all_queries} at once"
+        );
+    }
+
+    /// Where only orientations 50–80° off the shell's normal are free (a
+    /// steep part: every variant of the first round, and of the wider
+    /// rounds near it, collides), the eager search seeded by its probes
+    /// fills every column that searching each waypoint on its own fills,
+    /// with configurations the backend finds free, for a fraction of the
+    /// queries.
+    #[test]
+    fn the_eager_search_seeded_by_probes_fills_each_column_for_a_fraction_of_the_queries() {
+        let fixture = Fixture::new();
+        let backend = Grazing {
+            lo: 50f32.to_radians(),
+            hi: 80f32.to_radians(),
+            others_collide: true,
+        };
+        let setup = fixture.setup();
+        let open: Vec<usize> = (0..setup.waypoints()).collect();
+        let search = |seeded: bool| {
+            let prover = fixture.prover(&backend);
+            let mut columns = Columns::new(&setup);
+            if seeded {
+                columns.search_harder(&prover, &open).unwrap();
+            } else {
+                columns.search_wide(&prover, open.clone()).unwrap();
+            }
+            (columns, prover.queries())
+        };
+        let (seeded, seeded_queries) = search(true);
+        let (alone, alone_queries) = search(false);
+        let filled =
+            |c: &Columns| -> Vec<bool> { open.iter().map(|&g| c.live_count(g) > 0).collect() };
+        assert!(filled(&alone).iter().all(|&f| f), "a column left empty");
+        assert_eq!(filled(&seeded), filled(&alone));
+        // Every configuration the seeded columns hold free, asked again
+        // one by one.
+        let prover = fixture.prover(&backend);
+        for &g in &open {
+            for (a, n) in seeded.configs[g].iter().zip(&seeded.nodes[g]) {
+                assert_eq!(n.status, Status::Free);
+                let query = Query {
+                    pose: fixture.machine.pose(a),
+                    cutoff: cutoff(g),
+                    margin: prover.pose_margin() as f32,
+                    slope: 0.0,
+                };
+                assert_eq!(backend.evaluate(&[query]).unwrap(), [false], "waypoint {g}");
+            }
+        }
+        assert!(
+            seeded_queries * 2 < alone_queries,
+            "{seeded_queries} queries seeded, {alone_queries} alone"
         );
     }
 
