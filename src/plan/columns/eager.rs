@@ -94,9 +94,12 @@ impl Columns<'_> {
             .collect();
         self.search_seeded(prover, &lists)?;
         for g in sorted {
-            if self.live_count(g) == 0 {
+            if self.live_count(g) == 0 && !self.enter_doubtful(g) {
                 self.promote(g, &[Status::Unlikely, Status::Tight]);
             }
+            // Columns are long-lived (until the program): no spare room.
+            self.configs[g].shrink_to_fit();
+            self.nodes[g].shrink_to_fit();
         }
         Ok(())
     }

@@ -111,6 +111,11 @@ fn probe_positions(n: usize) -> Vec<usize> {
     at
 }
 
+/// A variant about to enter a column: the number of its item in the
+/// waypoint's first round, its configuration, and the status it enters
+/// with.
+type Next = (u32, Axes, Status);
+
 /// Waypoints whose next configurations [`Columns::refill`] finds at once.
 const REFILL_BLOCK: usize = 1 << 14;
 
@@ -539,80 +544,121 @@ impl<'a> Columns<'a> {
     }
 
     /// [`Columns::refill`] for the waypoints `block`: their next
-    /// configurations found in parallel (IK and axis ranges per variant),
-    /// then entered in order. Each comes with the number of its item among
-    /// the waypoint's new ones (its IK solutions share a pose): one flat
-    /// list per waypoint (a list per item would make this the planner's
-    /// peak of memory where most waypoints collide).
+    /// configurations found in parallel ([`Columns::next_configs`]), then
+    /// entered in order ([`Columns::enter`]). A column with no variant
+    /// free at the probes around it enters none: it goes to the eager
+    /// search first, and enters them only if that finds nothing
+    /// ([`Columns::enter_doubtful`]) — on a steep part most columns are
+    /// such, and their implausible variants were most of the planner's
+    /// memory.
     fn refill_block(&mut self, block: &[usize]) {
-        let cap = self.setup.opts.max_configs;
-        type Next = (usize, Vec<(u32, Axes, Status)>, u32);
-        let next: Vec<Next> = block
+        let next: Vec<(usize, Vec<Next>, u32)> = block
             .par_iter()
-            .filter(|&&g| self.cursor[g] != EXHAUSTED)
+            .filter(|&&g| self.cursor[g] != EXHAUSTED && self.free_at[g] != 0)
             .map(|&g| {
-                let want = cap.saturating_sub(self.live_count(g));
-                let items = self.first_round(g);
-                let mut at = self.cursor[g] as usize;
-                let (mut got, mut count) = (Vec::new(), 0);
-                while at < items.len() && count < want {
-                    for (sol, &tc) in items[at].iter().enumerate() {
-                        if let Some(a) = self.setup.feasible(g, tc) {
-                            let bit = 2 * at + sol;
-                            let status = if self.plausible(g, bit) {
-                                count += 1;
-                                Status::Unknown
-                            } else {
-                                Status::Unlikely
-                            };
-                            got.push((at as u32, a, status));
-                        }
-                    }
-                    at += 1;
-                }
-                let cursor = if at < items.len() {
-                    at as u32
-                } else {
-                    EXHAUSTED
-                };
-                (g, got, cursor)
+                let (configs, cursor) = self.next_configs(g, false);
+                (g, configs, cursor)
             })
             .collect();
         for (g, configs, cursor) in next {
-            self.cursor[g] = cursor;
-            self.offered[g] |= !configs.is_empty();
-            let mut item = None;
-            let mut pose = 0;
-            // (Counted as they enter: a count per configuration would make
-            // this loop quadratic in the column's length.)
-            let mut live = self.live_count(g);
-            self.configs[g].reserve(configs.len());
-            self.nodes[g].reserve(configs.len());
-            for (at, a, status) in configs {
-                if item != Some(at) {
-                    item = Some(at);
-                    pose = self.next_pose(g);
-                }
-                let room = status == Status::Unlikely || live < cap;
-                if room && self.push_config(g, a, status, pose) {
-                    pose += (!self.setup.symmetric) as u32;
-                    live += (status == Status::Unknown) as usize;
+            self.enter(g, configs, cursor);
+        }
+    }
+
+    /// Waypoint `g`'s column, left with nothing live by the eager search:
+    /// the rest of its first round enters, every variant unchecked,
+    /// implausible or not. Returns whether any did.
+    fn enter_doubtful(&mut self, g: usize) -> bool {
+        if self.cursor[g] == EXHAUSTED {
+            return false;
+        }
+        let (configs, cursor) = self.next_configs(g, true);
+        let any = !configs.is_empty();
+        self.enter(g, configs, cursor);
+        any
+    }
+
+    /// Waypoint `g`'s next variants from its cursor, each with the number
+    /// of its item among them (its IK solutions share a pose) and the
+    /// status it enters with: until the window holds `max_configs`
+    /// plausible ones (the implausible ones enter too, and do not count),
+    /// or, with `all`, every one left, unchecked. Returns them and the
+    /// cursor after them: one flat list per waypoint (a list per item
+    /// would make this the planner's peak of memory where most waypoints
+    /// collide).
+    fn next_configs(&self, g: usize, all: bool) -> (Vec<Next>, u32) {
+        let want = if all {
+            usize::MAX
+        } else {
+            self.setup
+                .opts
+                .max_configs
+                .saturating_sub(self.live_count(g))
+        };
+        let items = self.first_round(g);
+        let mut at = self.cursor[g] as usize;
+        let (mut got, mut count) = (Vec::new(), 0);
+        while at < items.len() && count < want {
+            for (sol, &tc) in items[at].iter().enumerate() {
+                if let Some(a) = self.setup.feasible(g, tc) {
+                    let status = if all || self.plausible(g, 2 * at + sol) {
+                        count += 1;
+                        Status::Unknown
+                    } else {
+                        Status::Unlikely
+                    };
+                    got.push((at as u32, a, status));
                 }
             }
-            // Columns are long-lived (until the program): no spare room.
-            self.configs[g].shrink_to_fit();
-            self.nodes[g].shrink_to_fit();
+            at += 1;
         }
+        let cursor = if at < items.len() {
+            at as u32
+        } else {
+            EXHAUSTED
+        };
+        (got, cursor)
+    }
+
+    /// Enter `configs` ([`Columns::next_configs`]) into waypoint `g`'s
+    /// column, the unchecked ones up to the cap, and move its cursor.
+    fn enter(&mut self, g: usize, configs: Vec<Next>, cursor: u32) {
+        let cap = self.setup.opts.max_configs;
+        self.cursor[g] = cursor;
+        self.offered[g] |= !configs.is_empty();
+        let mut item = None;
+        let mut pose = 0;
+        // (Counted as they enter: a count per configuration would make
+        // this loop quadratic in the column's length.)
+        let mut live = self.live_count(g);
+        self.configs[g].reserve(configs.len());
+        self.nodes[g].reserve(configs.len());
+        for (at, a, status) in configs {
+            if item != Some(at) {
+                item = Some(at);
+                pose = self.next_pose(g);
+            }
+            let room = status == Status::Unlikely || live < cap;
+            if room && self.push_config(g, a, status, pose) {
+                pose += (!self.setup.symmetric) as u32;
+                live += (status == Status::Unknown) as usize;
+            }
+        }
+        // Columns are long-lived (until the program): no spare room.
+        self.configs[g].shrink_to_fit();
+        self.nodes[g].shrink_to_fit();
     }
 
     /// Fill the windows of the lazily filled columns `which` up to the cap
     /// with unchecked variants from their cursors (the implausible ones
     /// enter too, [`Status::Unlikely`], but do not count). A column left
     /// with nothing live and no variant to come has its nodes held aside
-    /// promoted ([`Columns::promote`]), unless no variant was free at the
-    /// probes around it; returns those with nothing promoted (they need
-    /// the eager search, [`Columns::search_harder`], which promotes what
-    /// it cannot replace).
+    /// promoted ([`Columns::promote`]); one with no variant free at the
+    /// probes around it enters no variants. Returns the columns with
+    /// nothing live and nothing promoted, and those with no variant free
+    /// at their probes: they need the eager search
+    /// ([`Columns::search_harder`]), which enters or promotes what it
+    /// cannot replace.
     pub(super) fn refill(&mut self, which: &[usize]) -> Vec<usize> {
         self.refill_by(which, REFILL_BLOCK)
     }
@@ -628,12 +674,13 @@ impl<'a> Columns<'a> {
         }
         let mut empty = Vec::new();
         for &g in which {
-            if self.live_count(g) > 0 || self.cursor[g] != EXHAUSTED {
+            // With no variant free at the probes around it, the eager
+            // search comes before its variants and what it holds aside.
+            let doubtful = self.free_at[g] == 0;
+            if self.live_count(g) > 0 || (self.cursor[g] != EXHAUSTED && !doubtful) {
                 continue;
             }
-            // With no variant free at the probes around it, the eager
-            // search comes before what the column holds aside.
-            if self.free_at[g] == 0 || !self.promote(g, &[Status::Unlikely, Status::Tight]) {
+            if doubtful || !self.promote(g, &[Status::Unlikely, Status::Tight]) {
                 empty.push(g);
             }
         }
@@ -991,6 +1038,36 @@ mod tests {
             seeded_queries * 2 < alone_queries,
             "{seeded_queries} queries seeded, {alone_queries} alone"
         );
+    }
+
+    /// A column with no variant free at the probes around it does not
+    /// hold its first round's variants once the eager search fills it
+    /// (on a steep part they were most of the planner's memory): where
+    /// only orientations 50–80° off the normal are free, every column is
+    /// filled, with no implausible variant held.
+    #[test]
+    fn a_column_filled_by_the_eager_search_holds_no_implausible_variants() {
+        let fixture = Fixture::new();
+        let backend = Grazing {
+            lo: 50f32.to_radians(),
+            hi: 80f32.to_radians(),
+            others_collide: true,
+        };
+        let setup = fixture.setup();
+        let prover = fixture.prover(&backend);
+        let columns = Columns::build(&setup, &prover).unwrap();
+        let n = setup.waypoints();
+        assert!(
+            (0..n).all(|g| columns.live_count(g) > 0),
+            "a column left empty"
+        );
+        let doubtful: Vec<usize> = (0..n).filter(|&g| columns.free_at[g] == 0).collect();
+        assert!(doubtful.len() * 2 > n, "{} of {n}", doubtful.len());
+        for g in doubtful {
+            let held = |s: Status| columns.nodes[g].iter().filter(|n| n.status == s).count();
+            assert!(held(Status::Free) > 0, "waypoint {g}");
+            assert_eq!(held(Status::Unlikely), 0, "waypoint {g}");
+        }
     }
 
     /// The columns' windows refilled a waypoint at a time are those one
