@@ -49,6 +49,7 @@ pub use graph::REPAIR_WINDOWS;
 pub use prepare::{runs, Prepared};
 pub use verify::{input_axes, INPUT_STEP};
 
+use crate::collide::cpu::CpuBackend;
 use crate::collide::{Backend, CollideError};
 use crate::kinematics::{Axes, Machine};
 use crate::prove::Prover;
@@ -362,12 +363,17 @@ pub fn plan_prepared(
     let tell = |p: Progress| (progress.lock().expect("progress"))(p);
     let tick = |done, total| tell(Progress::Queries { done, total });
     let reach = head_reach(scene);
-    let prover = Prover::new(machine, backend, reach, margin, opts.edge_step).with_ticker(&tick);
+    // Queries that reach far are answered on the CPU beside a backend
+    // that answers them slowly (`Backend::wide_above`).
+    let cpu = CpuBackend::new(scene);
+    let prover = Prover::new(machine, backend, reach, margin, opts.edge_step)
+        .with_ticker(&tick)
+        .with_wide(&cpu);
     // The input's own metrics need nothing the planner finds: they are
     // measured beside it, with a prover of their own (its answers and
     // counts do not depend on how the two interleave), and fill the
     // cores the planner's serial steps leave idle.
-    let input_prover = Prover::new(machine, backend, reach, margin, opts.edge_step);
+    let input_prover = Prover::new(machine, backend, reach, margin, opts.edge_step).with_wide(&cpu);
     let mut clock = StageClock::new(&tell);
     for stage in std::mem::take(&mut prepared.stages) {
         clock.record(stage);

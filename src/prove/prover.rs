@@ -111,6 +111,9 @@ pub struct Prover<'a> {
     queries: AtomicU64,
     /// Hears `(done, total)` queries of each batch as it is answered.
     ticker: Option<Ticker<'a>>,
+    /// Where queries that reach farther than the backend answers well
+    /// ([`Backend::wide_above`]) go instead, and that reach (mm).
+    wide: Option<(&'a dyn Backend, f32)>,
 }
 
 /// Where a [`Prover`] reports the progress of its batches.
@@ -155,7 +158,18 @@ impl<'a> Prover<'a> {
             pose_clearances: Mutex::new(HashMap::default()),
             queries: AtomicU64::new(0),
             ticker: None,
+            wide: None,
         }
+    }
+
+    /// Answer the queries that reach farther than the backend answers
+    /// well ([`Backend::wide_above`]) on `beside`, at the same time as the
+    /// backend answers the others. Both must give the same verdicts (every
+    /// backend does: the differential tests hold them to it), so which
+    /// answers a query changes no plan.
+    pub fn with_wide(mut self, beside: &'a dyn Backend) -> Self {
+        self.wide = self.backend.wide_above().map(|above| (beside, above));
+        self
     }
 
     /// Report every batch's progress to `ticker` (queries done, total).
@@ -177,6 +191,37 @@ impl<'a> Prover<'a> {
 
     fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
         self.queries.fetch_add(q.len() as u64, Ordering::Relaxed);
+        let Some((beside, above)) = self.wide else {
+            return self.evaluate_here(q);
+        };
+        // A query's margin at the head's farthest point.
+        let reach = self.reach as f32;
+        let wide: Vec<bool> = q
+            .iter()
+            .map(|x| x.margin + x.slope * reach > above)
+            .collect();
+        if !wide.contains(&true) {
+            return self.evaluate_here(q);
+        }
+        let pick = |far: bool| -> Vec<Query> {
+            q.iter()
+                .zip(&wide)
+                .filter(|&(_, &w)| w == far)
+                .map(|(x, _)| *x)
+                .collect()
+        };
+        let (far, near) = (pick(true), pick(false));
+        let (near, far) = rayon::join(|| self.evaluate_here(&near), || beside.evaluate(&far));
+        let (mut near, mut far) = (near?.into_iter(), far?.into_iter());
+        Ok(wide
+            .into_iter()
+            .map(|w| if w { far.next() } else { near.next() })
+            .map(|v| v.expect("a verdict per query"))
+            .collect())
+    }
+
+    /// [`Prover::evaluate`] on the prover's own backend.
+    fn evaluate_here(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
         let Some(tick) = self.ticker else {
             return self.backend.evaluate(q);
         };
@@ -898,5 +943,59 @@ mod tests {
         assert_eq!(decided, None);
         assert_eq!(ask.len(), 1);
         assert!((ask[0].1 - 0.4).abs() < 1e-12);
+    }
+
+    /// A backend that answers as a [`Profile`] and answers well only
+    /// queries reaching 1 mm or less ([`Backend::wide_above`]).
+    struct Narrow(Profile);
+
+    impl Backend for Narrow {
+        fn name(&self) -> &'static str {
+            "narrow"
+        }
+        fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
+            self.0.evaluate(q)
+        }
+        fn wide_above(&self) -> Option<f32> {
+            Some(1.0)
+        }
+    }
+
+    /// Queries reaching farther than the backend answers well (margin
+    /// plus slope times the head's 36 mm) are asked of the backend beside
+    /// it, the others of the backend; the verdicts come back in the order
+    /// asked, as the backend alone gives them.
+    #[test]
+    fn wide_queries_go_to_the_backend_beside_with_verdicts_in_order() {
+        let m = Machine::default();
+        let pose = m.pose(&axes(&m, [0.0, 0.0, 40.0], 10.0, 0.0));
+        let queries: Vec<Query> = (0..200)
+            .map(|k| Query {
+                pose,
+                cutoff: 1,
+                margin: 0.01 * k as f32,
+                slope: if k % 3 == 0 { 0.01 } else { 0.0 },
+            })
+            .collect();
+        let (narrow, beside, alone) = (
+            Narrow(profile(0.5, -1.0)),
+            profile(0.5, -1.0),
+            profile(0.5, -1.0),
+        );
+        let split = Prover::new(&m, &narrow, 36.0, 0.05, 0.3).with_wide(&beside);
+        let plain = Prover::new(&m, &alone, 36.0, 0.05, 0.3);
+        let verdicts = split.evaluate(&queries).unwrap();
+        assert_eq!(verdicts, plain.evaluate(&queries).unwrap());
+        assert!(verdicts.contains(&true) && verdicts.contains(&false));
+        let reach = |q: &Query| q.margin + 36.0 * q.slope;
+        let (far, near) = (beside.asked.lock().unwrap(), narrow.0.asked.lock().unwrap());
+        assert!(far.iter().all(|q| reach(q) > 1.0) && near.iter().all(|q| reach(q) <= 1.0));
+        assert_eq!(far.len() + near.len(), queries.len());
+        assert!(
+            far.len() > 50 && near.len() > 50,
+            "{} far, {} near",
+            far.len(),
+            near.len()
+        );
     }
 }

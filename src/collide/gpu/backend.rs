@@ -15,6 +15,15 @@ use super::{GpuOptions, GpuStats, GpuTuning};
 use crate::kinematics::Machine;
 use crate::scene::Scene;
 
+/// Queries whose margin at the head's farthest point exceeds this (mm)
+/// are answered on the CPU beside the device ([`Backend::wide_above`]):
+/// the kernels gather every pair of head and part volumes within the
+/// margin before testing one, so a query of tens of millimetres (a
+/// travel's first, coarse samples) costs the device passes that the cpu
+/// backend's walk, stopping at the first triangle within the margin,
+/// does not.
+pub const WIDE_ABOVE: f32 = 8.0;
+
 /// The `gpu` backend.
 pub struct GpuBackend {
     pub(super) ctx: GpuContext,
@@ -232,6 +241,11 @@ impl Backend for GpuBackend {
 
     fn summary(&self) -> Option<String> {
         Some(format!("{} [{}]", self.stats(), self.tuning()))
+    }
+
+    /// [`WIDE_ABOVE`].
+    fn wide_above(&self) -> Option<f32> {
+        Some(WIDE_ABOVE)
     }
 
     /// Posed and reduced on the device ([`super::moves`]).
