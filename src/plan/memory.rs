@@ -29,6 +29,19 @@ pub(super) fn release_freed_memory() {
     }
 }
 
+/// Hand every page the allocator holds free back to the OS, however few:
+/// once, before the plan's outputs are made, whose buffers (the program's
+/// scene, the pictures) would otherwise come on top of what the planner
+/// left mapped (dome_cut `--tilt 50` with its report: a peak of 0.94
+/// GiB, not 1.04).
+pub(crate) fn release_all_freed_memory() {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    // SAFETY: as in `release_freed_memory`.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
 /// Freed memory (bytes) the allocator may keep mapped between stages
 /// ([`release_freed_memory`]).
 const RETAINED_AT_MOST: usize = 512 << 20;

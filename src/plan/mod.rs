@@ -34,7 +34,7 @@ pub mod cost;
 pub mod extrusion;
 mod graph;
 pub mod layer_reading;
-mod memory;
+pub(crate) mod memory;
 pub mod metrics;
 mod prepare;
 pub mod program;

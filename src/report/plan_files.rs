@@ -90,6 +90,8 @@ impl Rendered {
         report_margin: Option<f64>,
         show: &dyn StageSink,
     ) -> Result<Self, RenderError> {
+        // What the planner freed, handed back before the outputs are made.
+        crate::plan::memory::release_all_freed_memory();
         let header = GcodeHeader {
             source: job.source.clone(),
             command: context.command.to_string(),
