@@ -27,7 +27,7 @@ mod stats;
 pub mod tuning;
 pub mod wire;
 
-pub use backend::GpuBackend;
+pub use backend::{GpuBackend, WIDE_ABOVE};
 pub use context::{list_adapters, AdapterSummary, GpuContext};
 pub use resources::{NODE_CHUNKS, TRI_CHUNKS};
 pub use stats::GpuStats;
