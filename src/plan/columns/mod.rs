@@ -987,20 +987,25 @@ mod tests {
         );
     }
 
-    /// Where only orientations 50–80° off the shell's normal are free (a
-    /// steep part: every variant of the first round, and of the wider
-    /// rounds near it, collides), the eager search seeded by its probes
+    /// A steep part: only orientations 50–80° off the shell's normal are
+    /// free, so every variant of a first round, and of the wider rounds
+    /// near it, collides.
+    fn steep() -> Grazing {
+        Grazing {
+            lo: 50f32.to_radians(),
+            hi: 80f32.to_radians(),
+            others_collide: true,
+        }
+    }
+
+    /// On a [`steep`] part the eager search seeded by its probes
     /// fills every column that searching each waypoint on its own fills,
     /// with configurations the backend finds free, for a fraction of the
     /// queries.
     #[test]
     fn the_eager_search_seeded_by_probes_fills_each_column_for_a_fraction_of_the_queries() {
         let fixture = Fixture::new();
-        let backend = Grazing {
-            lo: 50f32.to_radians(),
-            hi: 80f32.to_radians(),
-            others_collide: true,
-        };
+        let backend = steep();
         let setup = fixture.setup();
         let open: Vec<usize> = (0..setup.waypoints()).collect();
         let search = |seeded: bool| {
@@ -1042,17 +1047,13 @@ mod tests {
 
     /// A column with no variant free at the probes around it does not
     /// hold its first round's variants once the eager search fills it
-    /// (on a steep part they were most of the planner's memory): where
-    /// only orientations 50–80° off the normal are free, every column is
-    /// filled, with no implausible variant held.
+    /// (on a steep part they were most of the planner's memory): on a
+    /// [`steep`] part every column is filled, and those with nothing
+    /// plausible (most) hold no implausible variant.
     #[test]
     fn a_column_filled_by_the_eager_search_holds_no_implausible_variants() {
         let fixture = Fixture::new();
-        let backend = Grazing {
-            lo: 50f32.to_radians(),
-            hi: 80f32.to_radians(),
-            others_collide: true,
-        };
+        let backend = steep();
         let setup = fixture.setup();
         let prover = fixture.prover(&backend);
         let columns = Columns::build(&setup, &prover).unwrap();
