@@ -348,7 +348,7 @@ fn plans_are_byte_identical_on_gpu_and_cpu() {
 #[test]
 fn simulate_gives_the_same_verdicts_on_gpu_and_cpu() {
     use maamplan::io::gcode::read_program;
-    use maamplan::plan::{head_reach, PlanOptions};
+    use maamplan::plan::PlanOptions;
     use maamplan::simulate;
     let job = simple_curve_job();
     let m = Machine::default();
@@ -369,7 +369,7 @@ fn simulate_gives_the_same_verdicts_on_gpu_and_cpu() {
         simulate::check_moves(
             &m,
             backend,
-            head_reach(&scene),
+            &scene,
             m.margin,
             PlanOptions::default().edge_step,
             &moves[a..b],

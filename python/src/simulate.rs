@@ -10,7 +10,7 @@ use maamplan::default_job::default_head;
 use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::kinematics::Machine;
-use maamplan::plan::{head_reach, PlanOptions};
+use maamplan::plan::PlanOptions;
 use maamplan::report::json::{simulation_report, SimulationRun};
 use maamplan::scene::PartSource;
 use maamplan::simulate::{self as sim, against, MoveReport, Simulation as Simulated};
@@ -85,7 +85,7 @@ pub fn simulate(
         let (collides, queries) = sim::check_moves(
             &machine,
             backend.as_ref(),
-            head_reach(&against.scene),
+            &against.scene,
             margin,
             PlanOptions::default().edge_step,
             &program_text.moves,

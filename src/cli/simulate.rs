@@ -11,7 +11,7 @@ use maamplan::io::gcode_read::{load_program, Program};
 use maamplan::io::mesh::load_mesh;
 use maamplan::io::output::write_output_set;
 use maamplan::kinematics::Machine;
-use maamplan::plan::{head_reach, PlanOptions, Progress};
+use maamplan::plan::{PlanOptions, Progress};
 use maamplan::report::html::{simulation_html, ReportContext, Seen};
 use maamplan::report::json::{pretty_bytes, simulation_report, SimulationRun};
 use maamplan::report::machine_bodies::machine_bodies;
@@ -113,7 +113,7 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     let (collides, queries) = simulate::check_moves(
         &machine,
         backend.as_ref(),
-        head_reach(&scene),
+        &scene,
         margin,
         PlanOptions::default().edge_step,
         moves,

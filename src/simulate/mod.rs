@@ -25,11 +25,14 @@ pub mod measure;
 pub mod own_part;
 pub mod timeline;
 
+use crate::collide::cpu::CpuBackend;
 use crate::collide::{Backend, CollideError};
 use crate::io::gcode_read::{axes_of, read_program, GcodeError, GcodeMove};
 use crate::kinematics::{Dialect, Machine};
+use crate::plan::head_reach;
 use crate::plan::layer_reading::NearestLayer;
 use crate::prove::{MoveSpec, Prover, Ticker};
+use crate::scene::Scene;
 use crate::toolpath::Toolpath;
 pub use measure::{MoveReport, Problem, ProblemKind};
 pub use own_part::{own_part, platform_under, OwnPart};
@@ -146,16 +149,17 @@ pub fn timeline(m: &Machine, toolpath: &Toolpath, moves: &[GcodeMove]) -> Timeli
 }
 
 /// Stage 2: does each line of `moves` that moves an axis come within
-/// `margin` of the material present (`cutoffs`, in the stamps of the
-/// scene `backend` was built on)? `None` for lines that move only the
-/// extruder. `reach` is the head's largest distance from its tip, `step`
-/// the initial sample spacing (mm). Returns the verdicts and the queries
-/// they took.
+/// `margin` of the material present (`cutoffs`, in the stamps of
+/// `scene`, which `backend` was built on)? `None` for lines that move
+/// only the extruder. `step` is the initial sample spacing (mm); queries
+/// the backend answers slowly go to the cpu backend beside it
+/// ([`Prover::with_wide`]). Returns the verdicts and the queries they
+/// took.
 #[allow(clippy::too_many_arguments)]
 pub fn check_moves(
     m: &Machine,
     backend: &dyn Backend,
-    reach: f64,
+    scene: &Scene,
     margin: f64,
     step: f64,
     moves: &[GcodeMove],
@@ -165,8 +169,9 @@ pub fn check_moves(
     let (joint, tcp) = machines(m);
     let mut out = vec![None; moves.len()];
     let mut queries = 0;
+    let (reach, cpu) = (head_reach(scene), CpuBackend::new(scene));
     for (machine, is_tcp) in [(&joint, false), (&tcp, true)] {
-        let mut prover = Prover::new(machine, backend, reach, margin, step);
+        let mut prover = Prover::new(machine, backend, reach, margin, step).with_wide(&cpu);
         if let Some(t) = ticker {
             prover = prover.with_ticker(t);
         }

@@ -451,7 +451,7 @@ pub fn simulate_cpu(
     let (hits, queries) = simulate::check_moves(
         m,
         &cpu,
-        maamplan::plan::head_reach(&scene),
+        &scene,
         m.margin,
         maamplan::plan::PlanOptions::default().edge_step,
         moves,
