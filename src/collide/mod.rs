@@ -48,12 +48,11 @@ pub trait Backend: Sync {
         16_384
     }
     /// Queries that reach farther than this (mm: the margin at the
-    /// head's farthest point) are better answered on
-    /// the CPU beside this backend (`None`: none are). The gpu backend
-    /// gathers every pair of head and part volumes within a query's
-    /// margin before it tests one, and a travel's first, coarse samples
-    /// ask tens of millimetres; the cpu backend stops at the first
-    /// triangle within the margin.
+    /// head's farthest point) are better answered on the CPU beside this
+    /// backend (`None`: none are). The gpu backend gathers every pair of
+    /// head and part volumes within a query's margin before it tests one,
+    /// and a travel's first, coarse samples ask tens of millimetres; the
+    /// cpu backend stops at the first triangle within the margin.
     fn wide_above(&self) -> Option<f32> {
         None
     }

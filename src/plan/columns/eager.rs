@@ -95,7 +95,7 @@ impl Columns<'_> {
         self.search_seeded(prover, &lists)?;
         for g in sorted {
             if self.live_count(g) == 0 && !self.enter_doubtful(g) {
-                self.promote(g, &[Status::Unlikely, Status::Tight]);
+                self.promote(g);
             }
             // Columns are long-lived (until the program): no spare room.
             self.configs[g].shrink_to_fit();

@@ -675,25 +675,25 @@ impl<'a> Columns<'a> {
         let mut empty = Vec::new();
         for &g in which {
             // With no variant free at the probes around it, the eager
-            // search comes before its variants and what it holds aside.
+            // search (its grazing own configuration first) comes before
+            // its variants.
             let doubtful = self.free_at[g] == 0;
             if self.live_count(g) > 0 || (self.cursor[g] != EXHAUSTED && !doubtful) {
                 continue;
             }
-            if doubtful || !self.promote(g, &[Status::Unlikely, Status::Tight]) {
+            if doubtful || !self.promote(g) {
                 empty.push(g);
             }
         }
         empty
     }
 
-    /// Waypoint `g`'s column holds nothing live: its nodes held aside as
-    /// the first of `aside` that it has become unchecked (held aside:
-    /// the implausible variants, [`Status::Unlikely`], and its own
-    /// configuration that fell short of its beads' need,
-    /// [`Status::Tight`]). Returns whether any did.
-    fn promote(&mut self, g: usize, aside: &[Status]) -> bool {
-        for &from in aside {
+    /// Waypoint `g`'s column holds nothing live: the nodes it holds aside
+    /// become unchecked, its implausible variants ([`Status::Unlikely`])
+    /// if it has any, else its own configuration that fell short of its
+    /// beads' need ([`Status::Tight`]). Returns whether any did.
+    fn promote(&mut self, g: usize) -> bool {
+        for from in [Status::Unlikely, Status::Tight] {
             let mut promoted = false;
             for n in &mut self.nodes[g] {
                 if n.status == from {
