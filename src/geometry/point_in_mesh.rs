@@ -119,6 +119,108 @@ pub fn contains_brute(verts_ray: &[V3], tris: &[[u32; 3]], p_ray: V3) -> bool {
     inside
 }
 
+/// [`contains_brute`]'s answer from only the triangles whose shadow
+/// (their box in the ray frame's `x, y`) covers the point's: the
+/// triangles are binned by shadow once, and a point's ray can only cross
+/// those of its bin. For the many points a head build asks.
+pub struct RayParity<'a> {
+    verts_ray: &'a [V3],
+    tris: &'a [[u32; 3]],
+    /// The bins' corner, size and counts along `x` and `y`.
+    origin: [f32; 2],
+    bin: f32,
+    dims: [usize; 2],
+    /// `first[k]..first[k + 1]`: bin `k`'s triangles in `members`.
+    first: Vec<u32>,
+    members: Vec<u32>,
+}
+
+/// Bins along the longer side of the mesh's shadow.
+const PARITY_BINS: f32 = 64.0;
+
+impl<'a> RayParity<'a> {
+    /// The bins for the mesh `tris` over `verts_ray` (ray space).
+    pub fn new(verts_ray: &'a [V3], tris: &'a [[u32; 3]]) -> Self {
+        let (mut lo, mut hi) = ([f32::MAX; 2], [f32::MIN; 2]);
+        for v in verts_ray {
+            for k in 0..2 {
+                lo[k] = lo[k].min(v[k]);
+                hi[k] = hi[k].max(v[k]);
+            }
+        }
+        let side = (hi[0] - lo[0]).max(hi[1] - lo[1]).max(f32::MIN_POSITIVE);
+        let bin = side / PARITY_BINS;
+        let dims = [0, 1].map(|k| (((hi[k] - lo[k]) / bin) as usize + 1).max(1));
+        let mut parity = RayParity {
+            verts_ray,
+            tris,
+            origin: lo,
+            bin,
+            dims,
+            first: Vec::new(),
+            members: Vec::new(),
+        };
+        // A shadow is grown by a bin's thousandth, so that rounding at its
+        // edge never leaves out a triangle the ray may cross.
+        let grow = 1e-3 * bin;
+        let spans: Vec<[[usize; 2]; 2]> = tris
+            .iter()
+            .map(|t| {
+                let c = t.map(|i| verts_ray[i as usize]);
+                std::array::from_fn(|k| {
+                    let lo = c[0][k].min(c[1][k]).min(c[2][k]) - grow;
+                    let hi = c[0][k].max(c[1][k]).max(c[2][k]) + grow;
+                    [parity.cell(lo, k), parity.cell(hi, k)]
+                })
+            })
+            .collect();
+        let mut count = vec![0u32; dims[0] * dims[1] + 1];
+        for [x, y] in &spans {
+            for j in y[0]..=y[1] {
+                for i in x[0]..=x[1] {
+                    count[j * dims[0] + i + 1] += 1;
+                }
+            }
+        }
+        for k in 1..count.len() {
+            count[k] += count[k - 1];
+        }
+        let mut next = count.clone();
+        parity.members = vec![0; count[count.len() - 1] as usize];
+        for (t, [x, y]) in spans.iter().enumerate() {
+            for j in y[0]..=y[1] {
+                for i in x[0]..=x[1] {
+                    let k = j * dims[0] + i;
+                    parity.members[next[k] as usize] = t as u32;
+                    next[k] += 1;
+                }
+            }
+        }
+        parity.first = count;
+        parity
+    }
+
+    /// The bin holding coordinate `x` along axis `k` (clamped to the bins).
+    fn cell(&self, x: f32, k: usize) -> usize {
+        let i = ((x - self.origin[k]) / self.bin).floor();
+        i.clamp(0.0, (self.dims[k] - 1) as f32) as usize
+    }
+
+    /// Is `p_ray` (ray space) inside the mesh? The same answer as
+    /// [`contains_brute`].
+    pub fn contains(&self, p_ray: V3) -> bool {
+        let k = self.cell(p_ray[1], 1) * self.dims[0] + self.cell(p_ray[0], 0);
+        let mut inside = false;
+        for &t in &self.members[self.first[k] as usize..self.first[k + 1] as usize] {
+            let [a, b, c] = self.tris[t as usize].map(|i| self.verts_ray[i as usize]);
+            if ray_crosses(a, b, c, p_ray) {
+                inside = !inside;
+            }
+        }
+        inside
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -145,6 +247,37 @@ mod tests {
             let p = [s, s, s];
             assert!(inside(p) || s == 0.0, "diagonal point {s}");
         }
+    }
+
+    /// The binned parity answers as the brute force does, at random
+    /// points around and inside a non-convex head and at its vertices
+    /// (rays through edges and corners).
+    #[test]
+    fn binned_parity_is_the_brute_forces() {
+        let radii: Vec<f32> = (0..48).map(|j| [20.0, 14.0, 18.0][j % 3]).collect();
+        let mesh = crate::default_job::star_head(&radii, 20.0, 30.0, [1.5, -2.0]);
+        let f = ray_frame();
+        let vr: Vec<V3> = mesh.vertices.iter().map(|p| to_ray_space(&f, *p)).collect();
+        let parity = RayParity::new(&vr, &mesh.triangles);
+        let (lo, hi) = ([-20.0, -22.0, 0.0], [22.0, 18.0, 30.0]);
+        let mut uniform = crate::geometry::xorshift(0x9a41_7e55_0c3d_2b11);
+        let mut points: Vec<V3> = (0..20_000)
+            .map(|_| {
+                std::array::from_fn(|k| {
+                    let t = 1.2 * uniform() as f32 - 0.1;
+                    lo[k] + t * (hi[k] - lo[k])
+                })
+            })
+            .collect();
+        points.extend(mesh.vertices.iter().copied());
+        let mut inside = 0;
+        for p in points {
+            let p = to_ray_space(&f, p);
+            let want = contains_brute(&vr, &mesh.triangles, p);
+            assert_eq!(parity.contains(p), want, "at {p:?}");
+            inside += want as usize;
+        }
+        assert!(inside > 1000, "{inside} points inside");
     }
 
     #[test]

@@ -27,7 +27,7 @@ use super::hull_plane;
 use super::nearest::{nearest_distance, HeadBvh};
 use super::SceneError;
 use crate::geometry::aabb::point_box_distance;
-use crate::geometry::point_in_mesh::{contains_brute, ray_frame, to_ray_space};
+use crate::geometry::point_in_mesh::{ray_frame, to_ray_space, RayParity};
 use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::geometry::{Aabb, Mesh, V3};
 use glam::DVec3;
@@ -238,7 +238,8 @@ fn grid_buffer(
         .iter()
         .map(|v| to_ray_space(frame, *v))
         .collect();
-    let inside = |p: [f32; 3]| contains_brute(&ray_verts, &mesh.triangles, to_ray_space(frame, p));
+    let parity = RayParity::new(&ray_verts, &mesh.triangles);
+    let inside = |p: [f32; 3]| parity.contains(to_ray_space(frame, p));
     grid.extend(hull_plane::hull_planes(
         bvh,
         &mesh.vertices,
@@ -421,9 +422,21 @@ fn lift_capped_cells(grid: &mut [f32], bvh: HeadBvh, layout: &GridLayout, band: 
     let cdims = [nx, ny, nz].map(|n| n.div_ceil(LIFT_COARSE));
     let ccell = layout.cell as f64 * LIFT_COARSE as f64;
     let ccentre = |i: usize, k: usize| layout.origin[k] as f64 + (i as f64 + 0.5) * ccell;
+    // Only coarse cells holding a capped fine cell are read.
+    let mut capped = vec![false; cdims[0] * cdims[1] * cdims[2]];
+    for (idx, v) in grid.iter().enumerate() {
+        if v.abs() as f64 >= band {
+            let (i, j, k) = (idx % nx, (idx / nx) % ny, idx / (nx * ny));
+            let (ci, cj, ck) = (i / LIFT_COARSE, j / LIFT_COARSE, k / LIFT_COARSE);
+            capped[(ck * cdims[1] + cj) * cdims[0] + ci] = true;
+        }
+    }
     let coarse: Vec<f64> = (0..cdims[0] * cdims[1] * cdims[2])
         .into_par_iter()
         .map(|c| {
+            if !capped[c] {
+                return 0.0;
+            }
             let (i, j, k) = (
                 c % cdims[0],
                 (c / cdims[0]) % cdims[1],
