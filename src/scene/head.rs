@@ -59,7 +59,9 @@ pub struct HeadConfig {
     /// Contact closer than this to the nozzle tip is ignored: the head is
     /// lifted by this much along its axis (mm).
     pub tip_clearance: f32,
-    /// Grid cells along the head's longest side.
+    /// Grid cells along the head's longest side: finer cells bound part
+    /// triangles closer (fewer exact tests) at the cube of the cost to
+    /// build and hold (ARCHITECTURE.md, "The head").
     pub grid_resolution: u32,
 }
 
@@ -67,7 +69,7 @@ impl Default for HeadConfig {
     fn default() -> Self {
         HeadConfig {
             tip_clearance: 0.3,
-            grid_resolution: 96,
+            grid_resolution: 160,
         }
     }
 }
