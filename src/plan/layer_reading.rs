@@ -151,6 +151,14 @@ impl NearestLayer {
         best.map(|(_, g)| g as usize)
     }
 
+    /// The waypoints within `r` of `p` (global indices, in no particular
+    /// order).
+    pub fn within(&self, p: [f64; 3], r: f64) -> impl Iterator<Item = usize> + '_ {
+        self.tree
+            .locate_within_distance(p, r * r)
+            .map(|site| site.data as usize)
+    }
+
     /// The layer of waypoint `g`.
     pub fn layer(&self, g: usize) -> usize {
         self.layer_of[g] as usize
