@@ -15,7 +15,7 @@ use maamplan::io::toolpath_folder::{mesh_obj, toolpath_files};
 use maamplan::kinematics::{Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post};
 use maamplan::plan::program::{move_seconds, MoveKind};
 use maamplan::plan::{Plan, PlanOptions};
-use maamplan::scene::{Scene, SceneConfig};
+use maamplan::scene::{cutoff, stamp_of, Scene, SceneConfig};
 use maamplan::simulate::{ProblemKind, Simulation};
 use maamplan::toolpath::{Layer, Toolpath, Waypoint};
 use std::path::PathBuf;
@@ -277,6 +277,87 @@ fn a_plan_for_a_tool_centre_point_controller_passes_the_simulator() {
         assert_eq!(sim.summary.printed_waypoints, tp.waypoint_count());
         assert!(sim.summary.checked_moves > 60);
     }
+}
+
+/// `simulate` checks each line of a plan's program against the material
+/// the planner proved it against: the same printed waypoints (in the
+/// beads written as several lines, the lifts off the last waypoint of a
+/// section and the first bead of the next), or fewer where the planner
+/// proved a piece against more (one that reads as a later layer).
+#[test]
+fn simulate_checks_each_line_of_a_plan_against_the_material_the_planner_did() {
+    // Two rows whose nozzles lean 31° and turn 20° a waypoint: the tip
+    // bows off the beads, which are written as several lines.
+    let row = |name: &str, z: f32| Layer {
+        name: name.into(),
+        waypoints: (0..12)
+            .map(|i| {
+                let a = i as f32 * 0.35;
+                Waypoint {
+                    pos: [i as f32 * 0.6 - 3.5, 0.0, z],
+                    dir: [0.6 * a.cos(), 0.6 * a.sin(), 1.0],
+                }
+            })
+            .collect(),
+        surface: Some(plate([-4.0, 4.0], [-0.5, 0.5], z)),
+    };
+    let tp = Toolpath {
+        layers: vec![row("0", 0.6), row("1", 1.2)],
+    };
+    let scene = Scene::build(
+        &tp,
+        &cone_head(5.0, 5.0, 8.0, 24),
+        &box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]),
+        &SceneConfig::default(),
+    )
+    .unwrap();
+    let m = Machine::default();
+    let p = plan_for(&tp, &scene, &m);
+    let planned: Vec<_> = p
+        .program
+        .moves(&m)
+        .into_iter()
+        .filter(|(from, mv)| {
+            *from != mv.to || matches!(mv.kind, MoveKind::Retract | MoveKind::Prime)
+        })
+        .collect();
+    let moves = read_program(&write_gcode(&m, &p.program, &GcodeHeader::default()), &m).unwrap();
+    assert_eq!(moves.len(), planned.len());
+    let timeline = maamplan::simulate::timeline(&m, &tp, &moves);
+    let printed: Vec<usize> = (0..tp.waypoint_count())
+        .filter(|&w| timeline.printed[w].is_some())
+        .collect();
+    let material = |exists: &dyn Fn(usize) -> bool| -> Vec<usize> {
+        printed.iter().copied().filter(|&w| exists(w)).collect()
+    };
+    // The waypoint the plan last reached: the one a print move leaves.
+    let mut from = None;
+    let (mut pieces, mut lifts) = (0, 0);
+    for (i, ((_, mv), g)) in planned.iter().zip(&moves).enumerate() {
+        if g.moves_axes() {
+            let sim = material(&|w| timeline.stamp(stamp_of(w)) < timeline.cutoffs[i]);
+            let plan = material(&|w| stamp_of(w) < mv.cutoff);
+            if mv.kind == MoveKind::Print && Some(mv.cutoff) != from.map(cutoff) {
+                assert!(sim.iter().all(|w| plan.contains(w)), "line {}", g.line);
+            } else {
+                assert_eq!(sim, plan, "line {}: {:?}", g.line, mv.kind);
+            }
+        }
+        pieces += (mv.kind == MoveKind::Print && mv.waypoint.is_none()) as usize;
+        lifts += (mv.kind == MoveKind::Lift) as usize;
+        if mv.waypoint.is_some() {
+            from = mv.waypoint;
+        }
+    }
+    assert!(pieces > 0 && lifts > 1, "{pieces} pieces, {lifts} lifts");
+    let sim = common::simulate_cpu(&tp, &scene, &m, &moves);
+    assert!(
+        sim.problems
+            .iter()
+            .all(|p| p.kind != ProblemKind::Collision),
+        "{:?}",
+        sim.problems
+    );
 }
 
 /// What `../shared/tools/gcode_audit.py --fcl` reports on the reference
