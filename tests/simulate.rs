@@ -12,8 +12,8 @@ use maamplan::default_job::{box_mesh, cone_head};
 use maamplan::io::gcode::{axes_of, read_program, write_gcode, GcodeHeader};
 use maamplan::io::output::write_folder_atomic;
 use maamplan::io::toolpath_folder::{mesh_obj, toolpath_files};
-use maamplan::kinematics::{Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post};
-use maamplan::plan::program::{move_seconds, MoveKind};
+use maamplan::kinematics::{Axes, Dialect, ExtrusionMode, FeedMode, Interpolation, Machine, Post};
+use maamplan::plan::program::{move_seconds, Move, MoveKind};
 use maamplan::plan::{Plan, PlanOptions};
 use maamplan::scene::{cutoff, stamp_of, Scene, SceneConfig};
 use maamplan::simulate::{ProblemKind, Simulation};
@@ -49,18 +49,23 @@ fn small_toolpath() -> Toolpath {
     }
 }
 
+/// The scene of `tp` under a small cone head, over a plate.
+fn cone_over_plate(tp: &Toolpath) -> Scene {
+    Scene::build(
+        tp,
+        &cone_head(5.0, 5.0, 8.0, 24),
+        &box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]),
+        &SceneConfig::default(),
+    )
+    .unwrap()
+}
+
 /// [`small_toolpath`] and its scene (a cone head over a plate), built once.
 fn small_job() -> &'static (Toolpath, Scene) {
     static JOB: OnceLock<(Toolpath, Scene)> = OnceLock::new();
     JOB.get_or_init(|| {
         let tp = small_toolpath();
-        let scene = Scene::build(
-            &tp,
-            &cone_head(5.0, 5.0, 8.0, 24),
-            &box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]),
-            &SceneConfig::default(),
-        )
-        .unwrap();
+        let scene = cone_over_plate(&tp);
         (tp, scene)
     })
 }
@@ -74,6 +79,18 @@ fn machine(post: Post) -> Machine {
 
 fn plan_for(tp: &Toolpath, scene: &Scene, m: &Machine) -> Plan {
     common::plan_cpu(scene, tp, m, &PlanOptions::default())
+}
+
+/// The moves of `p`'s program that its G-code writes a line for, in
+/// order: those that move an axis, and the retracts and primes.
+fn written_moves(p: &Plan, m: &Machine) -> Vec<(Axes, Move)> {
+    p.program
+        .moves(m)
+        .into_iter()
+        .filter(|(from, mv)| {
+            *from != mv.to || matches!(mv.kind, MoveKind::Retract | MoveKind::Prime)
+        })
+        .collect()
 }
 
 /// Every combination the writer offers, with unusual letters, signs and
@@ -208,14 +225,7 @@ fn g93_feeds_reproduce_each_moves_planned_duration() {
         let p = plan_for(tp, scene, &m);
         let text = write_gcode(&m, &p.program, &GcodeHeader::default());
         let back = read_program(&text, &m).unwrap();
-        let planned: Vec<_> = p
-            .program
-            .moves(&m)
-            .into_iter()
-            .filter(|(from, mv)| {
-                *from != mv.to || matches!(mv.kind, MoveKind::Retract | MoveKind::Prime)
-            })
-            .collect();
+        let planned = written_moves(&p, &m);
         let mut prev_e = 0.0;
         let mut feed_limited = 0;
         for (g, (from, mv)) in back.iter().zip(&planned) {
@@ -304,23 +314,10 @@ fn simulate_checks_each_line_of_a_plan_against_the_material_the_planner_did() {
     let tp = Toolpath {
         layers: vec![row("0", 0.6), row("1", 1.2)],
     };
-    let scene = Scene::build(
-        &tp,
-        &cone_head(5.0, 5.0, 8.0, 24),
-        &box_mesh([-60.0, -60.0, -2.0], [60.0, 60.0, 0.0]),
-        &SceneConfig::default(),
-    )
-    .unwrap();
+    let scene = cone_over_plate(&tp);
     let m = Machine::default();
     let p = plan_for(&tp, &scene, &m);
-    let planned: Vec<_> = p
-        .program
-        .moves(&m)
-        .into_iter()
-        .filter(|(from, mv)| {
-            *from != mv.to || matches!(mv.kind, MoveKind::Retract | MoveKind::Prime)
-        })
-        .collect();
+    let planned = written_moves(&p, &m);
     let moves = read_program(&write_gcode(&m, &p.program, &GcodeHeader::default()), &m).unwrap();
     assert_eq!(moves.len(), planned.len());
     let timeline = maamplan::simulate::timeline(&m, &tp, &moves);
