@@ -16,7 +16,7 @@
 //! waypoint printed after it, as the planner's cutoffs do (a move from
 //! waypoint `g` is proved against the stamps below `g`'s): the nozzle lays
 //! that bead, or rests on it. The waypoint a line leaves is the one its
-//! start tip stands on (within [`ON_WAYPOINT`]): the one the nozzle last
+//! start tip stands on (within 5 µm): the one the nozzle last
 //! arrived at, or a section's first, which the line starts printing. A
 //! bead written as several lines (the lines from one that starts on a
 //! waypoint to the first that ends on one, every end between under the
