@@ -108,29 +108,13 @@ impl Timeline {
             };
             let start_read = i.checked_sub(1).and_then(|j| reads[j]);
             if let (Some(a), Some(b)) = (near(pa, start_read), near(pb, reads[i])) {
-                let mut mark = |w: usize| {
+                let prints = bead_waypoints(reader, pos, half_width, (a, pa), (b, pb));
+                for w in prints {
                     if printed[w].is_none() {
                         printed[w] = Some(count);
                         count += 1;
                     }
-                };
-                let same_layer = reader.layer(a) == reader.layer(b);
-                // The bead starts at its first point: the waypoint there is
-                // printed (the first of a section has no move ending on it).
-                if same_layer && distance_to_segment(pos[a], pa, pa) <= half_width {
-                    // (A segment of length 0: the distance to the start tip.)
-                    mark(a);
                 }
-                if same_layer && a != b && a.abs_diff(b) <= MAX_RUN {
-                    // The waypoints strictly between, in print direction.
-                    let between = (1..a.abs_diff(b)).map(|k| if a < b { a + k } else { a - k });
-                    for w in between {
-                        if distance_to_segment(pos[w], pa, pb) <= half_width {
-                            mark(w);
-                        }
-                    }
-                }
-                mark(b);
                 last_layer = Some(reader.layer(b));
             }
             // The waypoint the bead leaves: the one the nozzle stands on, or
@@ -252,6 +236,32 @@ fn blips(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Vec<Option<
         };
     }
     fixed
+}
+
+/// The waypoints an extruding line from the tip at `pa` (nearest
+/// waypoint `a`) to `pb` (nearest `b`) prints, in print order: `a` when
+/// the bead starts on it (the first of a section has no line ending on
+/// it), those of the same layer strictly between that lie under the bead,
+/// and `b`.
+fn bead_waypoints(
+    reader: &NearestLayer,
+    pos: &[[f64; 3]],
+    half_width: f64,
+    (a, pa): (usize, [f64; 3]),
+    (b, pb): (usize, [f64; 3]),
+) -> Vec<usize> {
+    let mut out = Vec::new();
+    let same_layer = reader.layer(a) == reader.layer(b);
+    // (A segment of length 0: the distance to the start tip.)
+    if same_layer && distance_to_segment(pos[a], pa, pa) <= half_width {
+        out.push(a);
+    }
+    if same_layer && a != b && a.abs_diff(b) <= MAX_RUN {
+        let between = (1..a.abs_diff(b)).map(|k| if a < b { a + k } else { a - k });
+        out.extend(between.filter(|&w| distance_to_segment(pos[w], pa, pb) <= half_width));
+    }
+    out.push(b);
+    out
 }
 
 /// Of the printed waypoints the tip at `p` stands on (within
