@@ -38,6 +38,7 @@ use crate::plan::layer_reading::NearestLayer;
 use crate::program_toolpath::ProgramToolpath;
 use crate::scene::stamp_of;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Longest run of waypoints one extruding move may print at once.
 const MAX_RUN: usize = 10_000;
@@ -80,13 +81,14 @@ impl Timeline {
         let mut last_layer = None;
         let half_width = 0.5 * m.extrusion.width;
         let reads = blips(m, reader, moves);
+        let ends = LineEnds::new(m, reader, moves);
         let on = |p: [f64; 3], w: usize| distance_to_segment(pos[w], p, p) <= ON_WAYPOINT;
         // The waypoint the nozzle stands on (printed), and the bead being
         // laid: its last line and the print number of the waypoint it left.
         let mut stood: Option<usize> = None;
         let mut bead: Option<(usize, u32)> = None;
         for (i, mv) in moves.iter().enumerate() {
-            let (pa, pb) = (m.tip(&axes_of(&mv.from)), m.tip(&axes_of(&mv.to)));
+            let (pa, pb) = (m.tip(&axes_of(&mv.from)), ends.tips[i]);
             let in_bead = bead.filter(|&(last, _)| i <= last).map(|(_, k)| k);
             if !mv.extrudes() || pos.is_empty() {
                 // A piece of a bead, or leaving the waypoint the nozzle
@@ -120,11 +122,12 @@ impl Timeline {
             // The waypoint the bead leaves: the one the nozzle stands on, or
             // one this line starts printing at (a section's first).
             let leaves = in_bead.or_else(|| {
-                let start = latest(reader, &printed, pa, |w| {
+                let on_start = ends.at_start(reader, moves, i, pa);
+                let start = latest(&printed, &on_start, |w| {
                     Some(w) == stood || printed[w] >= Some(before)
                 });
                 let k = start.and_then(|w| printed[w])?;
-                if let Some(last) = bead_end(m, reader, moves, i, half_width) {
+                if let Some(last) = bead_end(&ends, moves, i, pa, half_width) {
                     bead = Some((last, k));
                 }
                 Some(k)
@@ -134,7 +137,7 @@ impl Timeline {
             // printed waypoint's.
             cutoffs.push(leaves.map_or(before, |k| k + 1));
             let since = leaves.unwrap_or(before);
-            stood = latest(reader, &printed, pb, |w| printed[w] >= Some(since));
+            stood = latest(&printed, ends.stands_on(i), |w| printed[w] >= Some(since));
             layers.push(last_layer);
         }
         // Before the first extrusion a move reads as the first printed layer.
@@ -264,48 +267,95 @@ fn bead_waypoints(
     out
 }
 
-/// Of the printed waypoints the tip at `p` stands on (within
-/// [`ON_WAYPOINT`]) that `ok` accepts, the one printed last.
-fn latest(
-    reader: &NearestLayer,
-    printed: &[Option<u32>],
-    p: [f64; 3],
-    ok: impl Fn(usize) -> bool,
-) -> Option<usize> {
-    reader
-        .within(p, ON_WAYPOINT)
+/// Each line's end tip, and the waypoints it stands on (within
+/// [`ON_WAYPOINT`]; several where waypoints coincide), looked up once
+/// for every line in parallel: the timeline asks them of a line's end, of
+/// the next line's start and while it follows a split bead.
+struct LineEnds {
+    tips: Vec<[f64; 3]>,
+    /// `first[i]..first[i + 1]`: line `i`'s waypoints in `on`.
+    first: Vec<usize>,
+    on: Vec<usize>,
+}
+
+impl LineEnds {
+    fn new(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Self {
+        let per: Vec<([f64; 3], Vec<usize>)> = moves
+            .par_iter()
+            .map(|mv| {
+                let tip = m.tip(&axes_of(&mv.to));
+                (tip, reader.within(tip, ON_WAYPOINT).collect())
+            })
+            .collect();
+        let mut ends = LineEnds {
+            tips: Vec::with_capacity(moves.len()),
+            first: Vec::with_capacity(moves.len() + 1),
+            on: Vec::new(),
+        };
+        ends.first.push(0);
+        for (tip, on) in per {
+            ends.tips.push(tip);
+            ends.on.extend(on);
+            ends.first.push(ends.on.len());
+        }
+        ends
+    }
+
+    /// The waypoints line `i`'s end tip stands on.
+    fn stands_on(&self, i: usize) -> &[usize] {
+        &self.on[self.first[i]..self.first[i + 1]]
+    }
+
+    /// The waypoints line `i`'s start tip `pa` stands on: the line
+    /// before's end's where it starts there.
+    fn at_start(
+        &self,
+        reader: &NearestLayer,
+        moves: &[GcodeMove],
+        i: usize,
+        pa: [f64; 3],
+    ) -> Vec<usize> {
+        match i.checked_sub(1) {
+            Some(h) if moves[h].to == moves[i].from => self.stands_on(h).to_vec(),
+            _ => reader.within(pa, ON_WAYPOINT).collect(),
+        }
+    }
+}
+
+/// Of the printed waypoints `on` (those a tip stands on) that `ok`
+/// accepts, the one printed last.
+fn latest(printed: &[Option<u32>], on: &[usize], ok: impl Fn(usize) -> bool) -> Option<usize> {
+    on.iter()
+        .copied()
         .filter(|&w| printed[w].is_some() && ok(w))
         .max_by_key(|&w| printed[w])
 }
 
-/// The last line of the bead that line `i` starts: the lines from `i` on
-/// (extruding, or moving with the written E unchanged, as the pieces of a
-/// bead of no length do: a turn on the spot) up to the first whose end
-/// stands on a waypoint, when every end before it lies under the bead
-/// (within `half_width` of the chord from `i`'s start tip to that end);
-/// `None` when something else comes first.
+/// The last line of the bead that line `i` starts at the tip `start`: the
+/// lines from `i` on (extruding, or moving with the written E unchanged,
+/// as the pieces of a bead of no length do: a turn on the spot) up to the
+/// first whose end stands on a waypoint, when every end before it lies
+/// under the bead (within `half_width` of the chord from `start` to that
+/// end); `None` when something else comes first.
 fn bead_end(
-    m: &Machine,
-    reader: &NearestLayer,
+    ends: &LineEnds,
     moves: &[GcodeMove],
     i: usize,
+    start: [f64; 3],
     half_width: f64,
 ) -> Option<usize> {
-    let start = m.tip(&axes_of(&moves[i].from));
-    let mut ends = Vec::new();
     for (j, mv) in moves.iter().enumerate().skip(i).take(MAX_BLIP) {
         let along = mv.extrudes() || (mv.linear && mv.de == 0.0 && mv.moves_axes());
         if !along {
             return None;
         }
-        let end = m.tip(&axes_of(&mv.to));
-        if reader.within(end, ON_WAYPOINT).next().is_some() {
-            return ends
+        let end = ends.tips[j];
+        if !ends.stands_on(j).is_empty() {
+            return ends.tips[i..j]
                 .iter()
                 .all(|&p| distance_to_segment(p, start, end) <= half_width)
                 .then_some(j);
         }
-        ends.push(end);
     }
     None
 }
