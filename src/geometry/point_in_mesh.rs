@@ -174,29 +174,19 @@ impl<'a> RayParity<'a> {
                 })
             })
             .collect();
-        let mut count = vec![0u32; dims[0] * dims[1] + 1];
-        for [x, y] in &spans {
-            for j in y[0]..=y[1] {
-                for i in x[0]..=x[1] {
-                    count[j * dims[0] + i + 1] += 1;
-                }
-            }
-        }
-        for k in 1..count.len() {
-            count[k] += count[k - 1];
-        }
-        let mut next = count.clone();
-        parity.members = vec![0; count[count.len() - 1] as usize];
+        let mut bins: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1]];
         for (t, [x, y]) in spans.iter().enumerate() {
             for j in y[0]..=y[1] {
                 for i in x[0]..=x[1] {
-                    let k = j * dims[0] + i;
-                    parity.members[next[k] as usize] = t as u32;
-                    next[k] += 1;
+                    bins[j * dims[0] + i].push(t as u32);
                 }
             }
         }
-        parity.first = count;
+        parity.first.push(0);
+        for bin in bins {
+            parity.members.extend(bin);
+            parity.first.push(parity.members.len() as u32);
+        }
         parity
     }
 

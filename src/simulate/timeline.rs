@@ -39,6 +39,7 @@ use crate::program_toolpath::ProgramToolpath;
 use crate::scene::stamp_of;
 use glam::DVec3;
 use rayon::prelude::*;
+use std::borrow::Cow;
 
 /// Longest run of waypoints one extruding move may print at once.
 const MAX_RUN: usize = 10_000;
@@ -314,10 +315,10 @@ impl LineEnds {
         moves: &[GcodeMove],
         i: usize,
         pa: [f64; 3],
-    ) -> Vec<usize> {
+    ) -> Cow<'_, [usize]> {
         match i.checked_sub(1) {
-            Some(h) if moves[h].to == moves[i].from => self.stands_on(h).to_vec(),
-            _ => reader.within(pa, ON_WAYPOINT).collect(),
+            Some(h) if moves[h].to == moves[i].from => Cow::Borrowed(self.stands_on(h)),
+            _ => Cow::Owned(reader.within(pa, ON_WAYPOINT).collect()),
         }
     }
 }
