@@ -36,6 +36,7 @@ use crate::scene::Scene;
 use crate::toolpath::Toolpath;
 pub use measure::{MoveReport, Problem, ProblemKind};
 pub use own_part::{own_part, platform_under, OwnPart};
+use rayon::prelude::*;
 use serde::Serialize;
 pub use timeline::Timeline;
 
@@ -207,7 +208,7 @@ pub fn report(
 ) -> Simulation {
     let (joint, tcp) = machines(m);
     let reports: Vec<MoveReport> = moves
-        .iter()
+        .par_iter()
         .enumerate()
         .map(|(i, mv)| {
             let mut r = measure::measure(if mv.tcp { &tcp } else { &joint }, mv);

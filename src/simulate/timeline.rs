@@ -81,15 +81,16 @@ impl Timeline {
         let mut count = 0u32;
         let mut last_layer = None;
         let half_width = 0.5 * m.extrusion.width;
-        let reads = blips(m, reader, moves);
         let ends = LineEnds::new(m, reader, moves);
+        let reads = blips(reader, &ends, moves);
+        let bead_ends = bead_ends(reader, &ends, &reads, moves);
         let on = |p: [f64; 3], w: usize| distance_to_segment(pos[w], p, p) <= ON_WAYPOINT;
         // The waypoint the nozzle stands on (printed), and the bead being
         // laid: its last line and the print number of the waypoint it left.
         let mut stood: Option<usize> = None;
         let mut bead: Option<(usize, u32)> = None;
         for (i, mv) in moves.iter().enumerate() {
-            let (pa, pb) = (m.tip(&axes_of(&mv.from)), ends.tips[i]);
+            let (pa, pb) = (ends.starts[i], ends.tips[i]);
             let in_bead = bead.filter(|&(last, _)| i <= last).map(|(_, k)| k);
             if !mv.extrudes() || pos.is_empty() {
                 // A piece of a bead, or leaving the waypoint the nozzle
@@ -105,12 +106,7 @@ impl Timeline {
                 continue;
             }
             let before = count;
-            let near = |p, read: Option<usize>| match read {
-                Some(l) => reader.nearest_in(p, l),
-                None => reader.nearest(p),
-            };
-            let start_read = i.checked_sub(1).and_then(|j| reads[j]);
-            if let (Some(a), Some(b)) = (near(pa, start_read), near(pb, reads[i])) {
+            if let Some((a, b)) = bead_ends[i] {
                 let prints = bead_waypoints(reader, pos, half_width, (a, pa), (b, pb));
                 for w in prints {
                     if printed[w].is_none() {
@@ -207,25 +203,23 @@ impl Timeline {
 /// Per move: the layer its end reads as when that is not the layer of the
 /// waypoint nearest to it — lines of one extruding run that read as other
 /// layers between lines that read as `L` read as `L`; `None` elsewhere.
-fn blips(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Vec<Option<usize>> {
+fn blips(reader: &NearestLayer, ends: &LineEnds, moves: &[GcodeMove]) -> Vec<Option<usize>> {
     let mut fixed = vec![None; moves.len()];
     // In an extruding run: (the first line after the last one that read as
     // the run's layer, that layer); a run reads first as where it starts.
     let mut anchor: Option<(usize, usize)> = None;
-    let layer_at = |axes| {
-        reader
-            .nearest(m.tip(&axes_of(axes)))
-            .map(|g| reader.layer(g))
-    };
     for (i, mv) in moves.iter().enumerate() {
         if !mv.extrudes() {
             anchor = None;
             continue;
         }
         if anchor.is_none() {
-            anchor = layer_at(&mv.from).map(|l| (i, l));
+            anchor = ends
+                .nearest_to_start(reader, moves, i)
+                .map(|g| (i, reader.layer(g)));
         }
-        let (Some((from, run)), Some(layer)) = (anchor, layer_at(&mv.to)) else {
+        let (Some((from, run)), Some(layer)) = (anchor, ends.nearest[i].map(|g| reader.layer(g)))
+        else {
             anchor = None;
             continue;
         };
@@ -240,6 +234,41 @@ fn blips(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Vec<Option<
         };
     }
     fixed
+}
+
+/// Per extruding move: the waypoints nearest to its start and its end,
+/// each of the layer it reads as ([`blips`]) where it reads as one,
+/// looked up for every line in parallel; `None` for the other moves, or
+/// where no waypoint is.
+fn bead_ends(
+    reader: &NearestLayer,
+    ends: &LineEnds,
+    reads: &[Option<usize>],
+    moves: &[GcodeMove],
+) -> Vec<Option<(usize, usize)>> {
+    // The nearest waypoint of `layer` is the nearest of all when that
+    // lies in `layer` (both take the earliest of equals).
+    let near = |p, nearest: Option<usize>, read: Option<usize>| match (read, nearest) {
+        (Some(l), Some(g)) if reader.layer(g) == l => Some(g),
+        (Some(l), _) => reader.nearest_in(p, l),
+        (None, _) => nearest,
+    };
+    (0..moves.len())
+        .into_par_iter()
+        .map(|i| {
+            if !moves[i].extrudes() {
+                return None;
+            }
+            let start_read = i.checked_sub(1).and_then(|j| reads[j]);
+            let a = near(
+                ends.starts[i],
+                ends.nearest_to_start(reader, moves, i),
+                start_read,
+            );
+            let b = near(ends.tips[i], ends.nearest[i], reads[i]);
+            a.zip(b)
+        })
+        .collect()
 }
 
 /// The waypoints an extruding line from the tip at `pa` (nearest
@@ -268,12 +297,15 @@ fn bead_waypoints(
     out
 }
 
-/// Each line's end tip, and the waypoints it stands on (within
-/// [`ON_WAYPOINT`]; several where waypoints coincide), looked up once
-/// for every line in parallel: the timeline asks them of a line's end, of
-/// the next line's start and while it follows a split bead.
+/// Each line's start and end tips, the waypoint nearest to its end and
+/// the waypoints its end stands on (within [`ON_WAYPOINT`]; several where
+/// waypoints coincide), looked up once for every line in parallel: the
+/// timeline asks them of a line's end, of the next line's start and while
+/// it follows a split bead.
 struct LineEnds {
+    starts: Vec<[f64; 3]>,
     tips: Vec<[f64; 3]>,
+    nearest: Vec<Option<usize>>,
     /// `first[i]..first[i + 1]`: line `i`'s waypoints in `on`.
     first: Vec<usize>,
     on: Vec<usize>,
@@ -281,25 +313,44 @@ struct LineEnds {
 
 impl LineEnds {
     fn new(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Self {
-        let per: Vec<([f64; 3], Vec<usize>)> = moves
+        let per: Vec<_> = moves
             .par_iter()
             .map(|mv| {
                 let tip = m.tip(&axes_of(&mv.to));
-                (tip, reader.within(tip, ON_WAYPOINT).collect())
+                let on: Vec<usize> = reader.within(tip, ON_WAYPOINT).collect();
+                (m.tip(&axes_of(&mv.from)), tip, reader.nearest(tip), on)
             })
             .collect();
         let mut ends = LineEnds {
+            starts: Vec::with_capacity(moves.len()),
             tips: Vec::with_capacity(moves.len()),
+            nearest: Vec::with_capacity(moves.len()),
             first: Vec::with_capacity(moves.len() + 1),
             on: Vec::new(),
         };
         ends.first.push(0);
-        for (tip, on) in per {
+        for (start, tip, nearest, on) in per {
+            ends.starts.push(start);
             ends.tips.push(tip);
+            ends.nearest.push(nearest);
             ends.on.extend(on);
             ends.first.push(ends.on.len());
         }
         ends
+    }
+
+    /// The waypoint nearest to line `i`'s start tip: the line before's
+    /// end's where it starts there.
+    fn nearest_to_start(
+        &self,
+        reader: &NearestLayer,
+        moves: &[GcodeMove],
+        i: usize,
+    ) -> Option<usize> {
+        match i.checked_sub(1) {
+            Some(h) if moves[h].to == moves[i].from => self.nearest[h],
+            _ => reader.nearest(self.starts[i]),
+        }
     }
 
     /// The waypoints line `i`'s end tip stands on.
