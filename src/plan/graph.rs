@@ -20,8 +20,9 @@ use super::setup::distance;
 use super::shortest_path::{self, KnownEdges, Path, SectionGraph};
 use super::{spread, PlanError, Skip};
 use crate::kinematics::{wrap, Axes};
-use crate::prove::{MoveSpec, Prover};
+use crate::prove::{pieces_bound, MoveSpec, Prover};
 use crate::scene::cutoff;
+use glam::DVec3;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 use std::collections::{BTreeMap, BTreeSet};
@@ -493,7 +494,14 @@ impl<'a> Search<'a> {
                         }
                     })
                     .collect();
-                let spread = spread::spread_run(&cfg[run.clone()], &bead_in, cm, tol);
+                let m = setup.machine;
+                let run_cfg = &cfg[run.clone()];
+                let pieces = |i: usize, turn: f64| {
+                    let reach = (DVec3::from(m.tip(&run_cfg[i])).length())
+                        .max(DVec3::from(m.tip(&run_cfg[i.saturating_sub(1)])).length());
+                    pieces_bound(m, reach, bead_in[i], turn, m.tip_tolerance)
+                };
+                let spread = spread::spread_run(run_cfg, &bead_in, cm, tol, pieces);
                 for (i, tilt, c) in spread {
                     let g = r.start + run.start + i;
                     let as_written = match cm.winding {

@@ -64,9 +64,10 @@ pub fn rate_limited(target: &[f64], tube: &[f64], rate: &[f64]) -> Vec<f64> {
     out
 }
 
-/// How much shorter a bead between two written (rounded) positions can be
-/// than between the waypoints themselves (mm): 0.0005 mm on each linear axis
-/// and 0.0005° on each angle, at both ends, 100 mm from the rotary axes.
+/// How much shorter a piece of bead between two written (rounded)
+/// positions can be than between the points it was planned between (mm):
+/// 0.0005 mm on each linear axis and 0.0005° on each angle, at both ends,
+/// 100 mm from the rotary axes.
 const ROUNDING_MM: f64 = 0.004;
 
 /// The spread of one printed run — configurations `cfg` in print order,
@@ -74,12 +75,15 @@ const ROUNDING_MM: f64 = 0.004;
 /// not printed: it enters the run through a break, or starts it), printed with `cm` — within `tol` radians of each orientation:
 /// `(i, tilt, c)` for each configuration whose spread values differ from
 /// its own, C unwound along the run. Empty when no bead of the run makes
-/// the extruder dwell.
+/// the extruder dwell. `pieces(i, turn)`: how many lines the program
+/// writes the bead into `cfg[i]` as when its orientation turns by `turn`
+/// radians ([`crate::prove::bounds::pieces_bound`]).
 pub fn spread_run(
     cfg: &[Axes],
     bead_in: &[f64],
     cm: &CostModel,
     tol: f64,
+    pieces: impl Fn(usize, f64) -> usize,
 ) -> Vec<(usize, f64, f64)> {
     let n = cfg.len();
     let slow = (1..n).any(|i| cm.dwell(bead_in[i], &cfg[i - 1], &cfg[i]) > 0.0);
@@ -92,24 +96,30 @@ pub fn spread_run(
         target.push(prev + cm.winding.dc(prev, a.c));
     }
     // Each bead's time at the slowest tip speed, less room for the
-    // program's rounding: the written bead may be up to ROUNDING_MM
-    // shorter, each angle 0.001° off.
-    let budget = |i: usize, speed: f64| {
-        let len = (bead_in[i] - ROUNDING_MM).max(0.0);
+    // program's rounding: each line the bead is written as may be up to
+    // ROUNDING_MM shorter, each angle 0.001° off. A line of a bead split
+    // into short pieces must keep the speed on its own.
+    let budget = |i: usize, speed: f64, lines: usize| {
+        let len = (bead_in[i] - lines as f64 * ROUNDING_MM).max(0.0);
         ((speed * len / cm.tip_speed[0]) * (1.0 - 1e-3) - 0.002)
             .max(0.0)
             .to_radians()
     };
+    // The lines of a bead turning as fast as one line allows (the spread
+    // turns it no faster).
+    let lines: Vec<usize> = (0..n)
+        .map(|i| pieces(i, budget(i, cm.rotary[0], 1) + budget(i, cm.rotary[1], 1)).max(1))
+        .collect();
     // C first, within the whole tolerance; then the tilt, within what C
     // left of it.
     let tube: Vec<f64> = cfg.iter().map(|a| c_tube(a.tilt, tol)).collect();
-    let rate: Vec<f64> = (0..n).map(|i| budget(i, cm.rotary[1])).collect();
+    let rate: Vec<f64> = (0..n).map(|i| budget(i, cm.rotary[1], lines[i])).collect();
     let c = rate_limited(&target, &tube, &rate);
     let tilts: Vec<f64> = cfg.iter().map(|a| a.tilt).collect();
     let t_tube: Vec<f64> = (0..n)
         .map(|i| (tol - c_deviation(cfg[i].tilt, c[i] - target[i])).max(0.0))
         .collect();
-    let t_rate: Vec<f64> = (0..n).map(|i| budget(i, cm.rotary[0])).collect();
+    let t_rate: Vec<f64> = (0..n).map(|i| budget(i, cm.rotary[0], lines[i])).collect();
     let t = rate_limited(&tilts, &t_tube, &t_rate);
     (0..n)
         .filter(|&i| (c[i] - target[i]).abs() > 1e-5 || (t[i] - tilts[i]).abs() > 1e-5)
@@ -139,6 +149,47 @@ mod tests {
         // Where the rate allows, the targets are kept.
         let slow: Vec<f64> = (0..n).map(|i| (5.0 * i as f64).to_radians()).collect();
         assert_eq!(rate_limited(&slow, &tube, &rate), slow);
+    }
+
+    /// A ring near the vertical whose C turns by 35° and 5° a bead in
+    /// turn (20° on average, where 25° is the most a bead allows), each
+    /// bead written as 14 lines: every line keeps the tip speed on its
+    /// own, each up to `ROUNDING_MM` shorter as written (a room of one
+    /// rounding per bead let the lines of a bead at the limit fall short).
+    #[test]
+    fn every_line_of_a_spread_bead_keeps_the_tip_speed() {
+        use crate::kinematics::Machine;
+        let m = Machine::default();
+        let cm = CostModel::new(&m, m.feed, m.tip_speed, 10.0);
+        let (n, len, lines) = (80, 1.85, 14);
+        let cfg: Vec<Axes> = (0..n)
+            .map(|i| {
+                let c = (20.0 * i as f64 + if i % 2 == 1 { 15.0 } else { 0.0 }).to_radians();
+                m.axes_at([20.0, 0.0, 40.0], (3f64.to_radians(), c))
+            })
+            .collect();
+        let bead_in: Vec<f64> = (0..n).map(|i| if i > 0 { len } else { 0.0 }).collect();
+        let out = spread_run(&cfg, &bead_in, &cm, 4.5f64.to_radians(), |_, _| lines);
+        assert!(out.len() >= n / 4, "{} of {n} spread", out.len());
+        let mut c: Vec<f64> = cfg.iter().map(|a| a.c).collect();
+        let mut t: Vec<f64> = cfg.iter().map(|a| a.tilt).collect();
+        for &(i, tilt, ci) in &out {
+            (t[i], c[i]) = (tilt, ci);
+        }
+        let line = len / lines as f64 - ROUNDING_MM;
+        for i in 1..n {
+            for (turn, rate) in [
+                ((c[i] - c[i - 1]).abs(), cm.rotary[1]),
+                ((t[i] - t[i - 1]).abs(), cm.rotary[0]),
+            ] {
+                let seconds = turn.to_degrees() / lines as f64 / rate;
+                assert!(
+                    line / seconds >= cm.tip_speed[0],
+                    "bead {i}: {} mm/s",
+                    line / seconds
+                );
+            }
+        }
     }
 
     #[test]

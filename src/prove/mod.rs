@@ -9,6 +9,7 @@ pub mod levels;
 pub mod prover;
 
 pub use bounds::{
-    displacement_bound, sweep, tip_deviation_bound, tip_subdivision, tip_subdivision_where, Sweep,
+    displacement_bound, pieces_bound, sweep, tip_deviation_bound, tip_subdivision,
+    tip_subdivision_where, Sweep,
 };
 pub use prover::{MoveSpec, Prover, Ticker};
