@@ -119,7 +119,7 @@ impl Timeline {
             // The waypoint the bead leaves: the one the nozzle stands on, or
             // one this line starts printing at (a section's first).
             let leaves = in_bead.or_else(|| {
-                let on_start = ends.at_start(reader, moves, i, pa);
+                let on_start = ends.at_start(reader, moves, i);
                 let start = latest(&printed, &on_start, |w| {
                     Some(w) == stood || printed[w] >= Some(before)
                 });
@@ -313,12 +313,17 @@ struct LineEnds {
 
 impl LineEnds {
     fn new(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Self {
-        let per: Vec<_> = moves
-            .par_iter()
-            .map(|mv| {
-                let tip = m.tip(&axes_of(&mv.to));
+        let per: Vec<_> = (0..moves.len())
+            .into_par_iter()
+            .map(|i| {
+                let tip = m.tip(&axes_of(&moves[i].to));
                 let on: Vec<usize> = reader.within(tip, ON_WAYPOINT).collect();
-                (m.tip(&axes_of(&mv.from)), tip, reader.nearest(tip), on)
+                // A line that starts where the one before ends starts at
+                // its tip.
+                let start = continues(moves, i)
+                    .is_none()
+                    .then(|| m.tip(&axes_of(&moves[i].from)));
+                (start, tip, reader.nearest(tip), on)
             })
             .collect();
         let mut ends = LineEnds {
@@ -330,6 +335,7 @@ impl LineEnds {
         };
         ends.first.push(0);
         for (start, tip, nearest, on) in per {
+            let start = start.unwrap_or_else(|| *ends.tips.last().expect("a line before"));
             ends.starts.push(start);
             ends.tips.push(tip);
             ends.nearest.push(nearest);
@@ -347,9 +353,9 @@ impl LineEnds {
         moves: &[GcodeMove],
         i: usize,
     ) -> Option<usize> {
-        match i.checked_sub(1) {
-            Some(h) if moves[h].to == moves[i].from => self.nearest[h],
-            _ => reader.nearest(self.starts[i]),
+        match continues(moves, i) {
+            Some(h) => self.nearest[h],
+            None => reader.nearest(self.starts[i]),
         }
     }
 
@@ -358,20 +364,19 @@ impl LineEnds {
         &self.on[self.first[i]..self.first[i + 1]]
     }
 
-    /// The waypoints line `i`'s start tip `pa` stands on: the line
-    /// before's end's where it starts there.
-    fn at_start(
-        &self,
-        reader: &NearestLayer,
-        moves: &[GcodeMove],
-        i: usize,
-        pa: [f64; 3],
-    ) -> Cow<'_, [usize]> {
-        match i.checked_sub(1) {
-            Some(h) if moves[h].to == moves[i].from => Cow::Borrowed(self.stands_on(h)),
-            _ => Cow::Owned(reader.within(pa, ON_WAYPOINT).collect()),
+    /// The waypoints line `i`'s start tip stands on: the line before's
+    /// end's where it starts there.
+    fn at_start(&self, reader: &NearestLayer, moves: &[GcodeMove], i: usize) -> Cow<'_, [usize]> {
+        match continues(moves, i) {
+            Some(h) => Cow::Borrowed(self.stands_on(h)),
+            None => Cow::Owned(reader.within(self.starts[i], ON_WAYPOINT).collect()),
         }
     }
+}
+
+/// The line before line `i` when `i` starts where it ends.
+fn continues(moves: &[GcodeMove], i: usize) -> Option<usize> {
+    i.checked_sub(1).filter(|&h| moves[h].to == moves[i].from)
 }
 
 /// Of the printed waypoints `on` (those a tip stands on) that `ok`
