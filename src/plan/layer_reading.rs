@@ -152,6 +152,32 @@ impl NearestLayer {
     }
 
     /// The waypoints within `r` of `p` (global indices, in no particular
+    /// order) and the waypoint nearest to `p` ([`Self::nearest`]), in one
+    /// search where one lies within `r`: the nearest of all is then the
+    /// nearest of those (the smallest squared distance, as the tree
+    /// measures it, then the earliest).
+    pub fn within_and_nearest(&self, p: [f64; 3], r: f64) -> (Vec<usize>, Option<usize>) {
+        use rstar::PointDistance;
+        let mut best: Option<(f64, u32)> = None;
+        let near: Vec<usize> = self
+            .tree
+            .locate_within_distance(p, r * r)
+            .map(|site| {
+                let key = (site.distance_2(&p), site.data);
+                if best.is_none_or(|b| key < b) {
+                    best = Some(key);
+                }
+                site.data as usize
+            })
+            .collect();
+        let nearest = match best {
+            Some((_, g)) => Some(g as usize),
+            None => self.nearest(p),
+        };
+        (near, nearest)
+    }
+
+    /// The waypoints within `r` of `p` (global indices, in no particular
     /// order).
     pub fn within(&self, p: [f64; 3], r: f64) -> impl Iterator<Item = usize> + '_ {
         self.tree
@@ -184,6 +210,50 @@ impl NearestLayer {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// One search for the waypoints within reach and the nearest gives
+    /// what the two searches give apart, ties to the earliest included:
+    /// waypoints on a coarse grid, each position held by two or three,
+    /// asked at points on them, beside them and far from all.
+    #[test]
+    fn within_and_nearest_agree_with_the_searches_apart() {
+        let mut u = crate::geometry::xorshift(0x7ea5_0bed_0000_0007);
+        let pos: Vec<[f64; 3]> = (0..3000)
+            .map(|_| {
+                [
+                    (8.0 * u()).floor() * 0.004,
+                    (8.0 * u()).floor() * 0.004,
+                    (3.0 * u()).floor(),
+                ]
+            })
+            .collect();
+        let layer_of: Vec<usize> = (0..pos.len()).map(|g| g / 1000).collect();
+        let index = NearestLayer::new(&pos, &layer_of);
+        let (mut on, mut off) = (0, 0);
+        for k in 0..4000 {
+            let p = match k % 3 {
+                0 => pos[k % pos.len()],
+                1 => pos[k % pos.len()].map(|x| x + 0.004 * (u() - 0.5)),
+                _ => [0.2 * u() - 0.1, 0.2 * u() - 0.1, 4.0 * u() - 0.5],
+            };
+            let r = 0.002;
+            let (mut near, nearest) = index.within_and_nearest(p, r);
+            let mut apart: Vec<usize> = index.within(p, r).collect();
+            near.sort_unstable();
+            apart.sort_unstable();
+            assert_eq!(near, apart, "point {p:?}");
+            assert_eq!(nearest, index.nearest(p), "point {p:?}");
+            if near.is_empty() {
+                off += 1
+            } else {
+                on += 1
+            }
+        }
+        assert!(
+            on > 1000 && off > 1000,
+            "{on} points near waypoints, {off} not"
+        );
+    }
 
     #[test]
     fn a_point_reads_as_the_layer_of_its_nearest_waypoint() {

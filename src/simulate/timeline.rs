@@ -317,13 +317,13 @@ impl LineEnds {
             .into_par_iter()
             .map(|i| {
                 let tip = m.tip(&axes_of(&moves[i].to));
-                let on: Vec<usize> = reader.within(tip, ON_WAYPOINT).collect();
+                let (on, nearest) = reader.within_and_nearest(tip, ON_WAYPOINT);
                 // A line that starts where the one before ends starts at
                 // its tip.
                 let start = continues(moves, i)
                     .is_none()
                     .then(|| m.tip(&axes_of(&moves[i].from)));
-                (start, tip, reader.nearest(tip), on)
+                (start, tip, nearest, on)
             })
             .collect();
         let mut ends = LineEnds {
