@@ -99,6 +99,7 @@ pub fn simulate(
             &collides,
             queries,
             margin,
+            sim::Deviation::Sampled,
         );
         Ok((simulated, backend.name()))
     });

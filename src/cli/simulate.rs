@@ -126,7 +126,15 @@ pub fn run(a: SimulateArgs) -> Result<()> {
     }
 
     let t3 = Instant::now();
-    let sim = simulate::report(&machine, moves, &timeline, &collides, queries, margin);
+    let sim = simulate::report(
+        &machine,
+        moves,
+        &timeline,
+        &collides,
+        queries,
+        margin,
+        simulate::Deviation::Sampled,
+    );
     show.stage_line("measure", t3.elapsed().as_secs_f64(), None);
 
     let written = match &a.out {

@@ -34,7 +34,7 @@ use crate::plan::layer_reading::NearestLayer;
 use crate::prove::{MoveSpec, Prover, Ticker};
 use crate::scene::Scene;
 use crate::toolpath::Toolpath;
-pub use measure::{MoveReport, Problem, ProblemKind};
+pub use measure::{Deviation, MoveReport, Problem, ProblemKind};
 pub use own_part::{own_part, platform_under, OwnPart};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -197,7 +197,10 @@ pub fn check_moves(
 }
 
 /// Stage 3: every line measured, the problems and the summary.
-/// `collides` and `queries` are [`check_moves`]'s answer.
+/// `collides` and `queries` are [`check_moves`]'s answer; `deviation`
+/// says how the tip deviations are found ([`Deviation::Sampled`]: the
+/// summary's deviation figures are the sampled ones).
+#[allow(clippy::too_many_arguments)]
 pub fn report(
     m: &Machine,
     moves: &[GcodeMove],
@@ -205,13 +208,14 @@ pub fn report(
     collides: &[Option<bool>],
     queries: u64,
     margin: f64,
+    deviation: Deviation,
 ) -> Simulation {
     let (joint, tcp) = machines(m);
     let reports: Vec<MoveReport> = moves
         .par_iter()
         .enumerate()
         .map(|(i, mv)| {
-            let mut r = measure::measure(if mv.tcp { &tcp } else { &joint }, mv);
+            let mut r = measure::measure(if mv.tcp { &tcp } else { &joint }, mv, deviation);
             r.layer = timeline.layers[i];
             r.collides = collides[i] == Some(true);
             r
@@ -272,7 +276,10 @@ pub fn report(
 /// A program whose every move is already proven free (a plan's), read
 /// back from its text and measured as any program is: its moves, when
 /// it prints `toolpath`'s waypoints, and what [`report`] finds in it
-/// without checking collisions again.
+/// without checking collisions again. Its problems and durations are
+/// `simulate`'s; tip deviations are sampled only where they may pass
+/// the tolerance ([`Deviation::OverTolerance`]: elsewhere the summary's
+/// deviation figures are the bow's bounds).
 pub fn replay(
     m: &Machine,
     toolpath: &Toolpath,
@@ -282,6 +289,14 @@ pub fn replay(
     let moves = read_program(gcode, m)?;
     let timeline = timeline(m, toolpath, &moves);
     let unchecked = vec![None; moves.len()];
-    let sim = report(m, &moves, &timeline, &unchecked, 0, margin);
+    let sim = report(
+        m,
+        &moves,
+        &timeline,
+        &unchecked,
+        0,
+        margin,
+        Deviation::OverTolerance,
+    );
     Ok((moves, timeline, sim))
 }

@@ -459,7 +459,15 @@ pub fn simulate_cpu(
         None,
     )
     .unwrap();
-    simulate::report(m, moves, &timeline, &hits, queries, m.margin)
+    simulate::report(
+        m,
+        moves,
+        &timeline,
+        &hits,
+        queries,
+        m.margin,
+        simulate::Deviation::Sampled,
+    )
 }
 
 /// A flat square of two triangles at height `z`.
