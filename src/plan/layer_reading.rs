@@ -213,7 +213,7 @@ mod tests {
 
     /// One search for the waypoints within reach and the nearest gives
     /// what the two searches give apart, ties to the earliest included:
-    /// waypoints on a coarse grid, each position held by two or three,
+    /// waypoints on a coarse grid, each position held by a dozen or more,
     /// asked at points on them, beside them and far from all.
     #[test]
     fn within_and_nearest_agree_with_the_searches_apart() {

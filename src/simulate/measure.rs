@@ -328,8 +328,8 @@ mod tests {
 
     /// Sampling only where the bound reaches the tolerance finds every
     /// line the full sampling finds over it, with its value, and never
-    /// says less than the sampling of any line; the lines it leaves
-    /// unsampled are most of them.
+    /// says less than the sampling of any line; many lines are left
+    /// unsampled.
     #[test]
     fn deviations_over_the_tolerance_are_the_sampled_ones() {
         let m = Machine::default();
