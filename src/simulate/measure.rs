@@ -11,7 +11,7 @@
 //! `|Δtilt| + |ΔC|`; the filament per millimetre of bead.
 
 use crate::io::gcode_read::{axes_of, GcodeMove};
-use crate::kinematics::{Axes, Interpolation, Machine};
+use crate::kinematics::{Axes, Machine};
 use crate::plan::metrics::tip_deviation;
 use crate::prove::tip_deviation_bound;
 use serde::Serialize;
@@ -140,7 +140,8 @@ pub fn measure(m: &Machine, mv: &GcodeMove, deviation: Deviation) -> MoveReport 
 
 /// The tip deviation of the extruding line `a → b` as `how` finds it.
 fn deviation_of(m: &Machine, a: &Axes, b: &Axes, how: Deviation) -> f64 {
-    if how == Deviation::OverTolerance && m.post.interpolation() == Interpolation::Joint {
+    if how == Deviation::OverTolerance {
+        // (0 under tool-centre-point control, as the sampling.)
         let bound = tip_deviation_bound(m, a, b);
         // (A line within rounding of the tolerance is sampled.)
         if bound < m.tip_tolerance * (1.0 - 1e-9) {

@@ -39,7 +39,7 @@ use crate::program_toolpath::ProgramToolpath;
 use crate::scene::stamp_of;
 use glam::DVec3;
 use rayon::prelude::*;
-use std::borrow::Cow;
+use std::ops::Range;
 
 /// Longest run of waypoints one extruding move may print at once.
 const MAX_RUN: usize = 10_000;
@@ -84,7 +84,6 @@ impl Timeline {
         let ends = LineEnds::new(m, reader, moves);
         let reads = blips(reader, &ends, moves);
         let bead_ends = bead_ends(reader, &ends, &reads, moves);
-        let on = |p: [f64; 3], w: usize| distance_to_segment(pos[w], p, p) <= ON_WAYPOINT;
         // The waypoint the nozzle stands on (printed), and the bead being
         // laid: its last line and the print number of the waypoint it left.
         let mut stood: Option<usize> = None;
@@ -96,11 +95,14 @@ impl Timeline {
                 // A piece of a bead, or leaving the waypoint the nozzle
                 // stands on (a lift, a turn on the spot): without its
                 // material; else all printed material.
-                let leaves =
-                    in_bead.or_else(|| stood.filter(|&w| on(pa, w)).and_then(|w| printed[w]));
+                let leaves = in_bead.or_else(|| {
+                    stood
+                        .filter(|w| ends.at_start(i).contains(w))
+                        .and_then(|w| printed[w])
+                });
                 cutoffs.push(leaves.map_or(count + 1, |k| k + 1));
                 layers.push(last_layer);
-                if mv.moves_axes() && !stood.is_some_and(|w| on(pb, w)) {
+                if mv.moves_axes() && !stood.is_some_and(|w| ends.stands_on(i).contains(&w)) {
                     stood = None;
                 }
                 continue;
@@ -119,8 +121,7 @@ impl Timeline {
             // The waypoint the bead leaves: the one the nozzle stands on, or
             // one this line starts printing at (a section's first).
             let leaves = in_bead.or_else(|| {
-                let on_start = ends.at_start(reader, moves, i);
-                let start = latest(&printed, &on_start, |w| {
+                let start = latest(&printed, ends.at_start(i), |w| {
                     Some(w) == stood || printed[w] >= Some(before)
                 });
                 let k = start.and_then(|w| printed[w])?;
@@ -214,9 +215,7 @@ fn blips(reader: &NearestLayer, ends: &LineEnds, moves: &[GcodeMove]) -> Vec<Opt
             continue;
         }
         if anchor.is_none() {
-            anchor = ends
-                .nearest_to_start(reader, moves, i)
-                .map(|g| (i, reader.layer(g)));
+            anchor = ends.start_nearest[i].map(|g| (i, reader.layer(g)));
         }
         let (Some((from, run)), Some(layer)) = (anchor, ends.nearest[i].map(|g| reader.layer(g)))
         else {
@@ -260,11 +259,7 @@ fn bead_ends(
                 return None;
             }
             let start_read = i.checked_sub(1).and_then(|j| reads[j]);
-            let a = near(
-                ends.starts[i],
-                ends.nearest_to_start(reader, moves, i),
-                start_read,
-            );
+            let a = near(ends.starts[i], ends.start_nearest[i], start_read);
             let b = near(ends.tips[i], ends.nearest[i], reads[i]);
             a.zip(b)
         })
@@ -297,80 +292,83 @@ fn bead_waypoints(
     out
 }
 
-/// Each line's start and end tips, the waypoint nearest to its end and
-/// the waypoints its end stands on (within [`ON_WAYPOINT`]; several where
-/// waypoints coincide), looked up once for every line in parallel: the
-/// timeline asks them of a line's end, of the next line's start and while
-/// it follows a split bead.
+/// Each line's start and end tips, the waypoints nearest to them and the
+/// waypoints they stand on (within [`ON_WAYPOINT`]; several where
+/// waypoints coincide), looked up once for every line in parallel; a line
+/// that starts where the one before ends shares that line's end.
 struct LineEnds {
     starts: Vec<[f64; 3]>,
     tips: Vec<[f64; 3]>,
+    start_nearest: Vec<Option<usize>>,
     nearest: Vec<Option<usize>>,
-    /// `first[i]..first[i + 1]`: line `i`'s waypoints in `on`.
-    first: Vec<usize>,
+    /// Line `i`'s start tip stands on `on[start_on[i]]`, its end tip on
+    /// `on[end_on[i]]`.
+    start_on: Vec<Range<usize>>,
+    end_on: Vec<Range<usize>>,
     on: Vec<usize>,
 }
 
+/// A tip, the waypoints it stands on and the waypoint nearest to it.
+type TipLookup = ([f64; 3], Vec<usize>, Option<usize>);
+
 impl LineEnds {
     fn new(m: &Machine, reader: &NearestLayer, moves: &[GcodeMove]) -> Self {
-        let per: Vec<_> = (0..moves.len())
+        let look = |axes: &[f64; 5]| -> TipLookup {
+            let tip = m.tip(&axes_of(axes));
+            let (on, nearest) = reader.within_and_nearest(tip, ON_WAYPOINT);
+            (tip, on, nearest)
+        };
+        let per: Vec<(Option<TipLookup>, TipLookup)> = (0..moves.len())
             .into_par_iter()
             .map(|i| {
-                let tip = m.tip(&axes_of(&moves[i].to));
-                let (on, nearest) = reader.within_and_nearest(tip, ON_WAYPOINT);
-                // A line that starts where the one before ends starts at
-                // its tip.
-                let start = continues(moves, i)
-                    .is_none()
-                    .then(|| m.tip(&axes_of(&moves[i].from)));
-                (start, tip, nearest, on)
+                let start = continues(moves, i).is_none().then(|| look(&moves[i].from));
+                (start, look(&moves[i].to))
             })
             .collect();
+        let n = moves.len();
         let mut ends = LineEnds {
-            starts: Vec::with_capacity(moves.len()),
-            tips: Vec::with_capacity(moves.len()),
-            nearest: Vec::with_capacity(moves.len()),
-            first: Vec::with_capacity(moves.len() + 1),
+            starts: Vec::with_capacity(n),
+            tips: Vec::with_capacity(n),
+            start_nearest: Vec::with_capacity(n),
+            nearest: Vec::with_capacity(n),
+            start_on: Vec::with_capacity(n),
+            end_on: Vec::with_capacity(n),
             on: Vec::new(),
         };
-        ends.first.push(0);
-        for (start, tip, nearest, on) in per {
-            let start = start.unwrap_or_else(|| *ends.tips.last().expect("a line before"));
+        for (start, (tip, on, nearest)) in per {
+            let (start, start_on, start_nearest) = match start {
+                Some((start, on, nearest)) => (start, ends.keep(on), nearest),
+                None => {
+                    let h = ends.tips.len() - 1;
+                    (ends.tips[h], ends.end_on[h].clone(), ends.nearest[h])
+                }
+            };
             ends.starts.push(start);
+            ends.start_on.push(start_on);
+            ends.start_nearest.push(start_nearest);
             ends.tips.push(tip);
+            let end_on = ends.keep(on);
+            ends.end_on.push(end_on);
             ends.nearest.push(nearest);
-            ends.on.extend(on);
-            ends.first.push(ends.on.len());
         }
         ends
     }
 
-    /// The waypoint nearest to line `i`'s start tip: the line before's
-    /// end's where it starts there.
-    fn nearest_to_start(
-        &self,
-        reader: &NearestLayer,
-        moves: &[GcodeMove],
-        i: usize,
-    ) -> Option<usize> {
-        match continues(moves, i) {
-            Some(h) => self.nearest[h],
-            None => reader.nearest(self.starts[i]),
-        }
+    /// `waypoints` kept in `on`, and where.
+    fn keep(&mut self, waypoints: Vec<usize>) -> Range<usize> {
+        let from = self.on.len();
+        self.on.extend(waypoints);
+        from..self.on.len()
+    }
+
+    /// The waypoints line `i`'s start tip stands on.
+    fn at_start(&self, i: usize) -> &[usize] {
+        &self.on[self.start_on[i].clone()]
     }
 
     /// The waypoints line `i`'s end tip stands on.
     fn stands_on(&self, i: usize) -> &[usize] {
-        &self.on[self.first[i]..self.first[i + 1]]
-    }
-
-    /// The waypoints line `i`'s start tip stands on: the line before's
-    /// end's where it starts there.
-    fn at_start(&self, reader: &NearestLayer, moves: &[GcodeMove], i: usize) -> Cow<'_, [usize]> {
-        match continues(moves, i) {
-            Some(h) => Cow::Borrowed(self.stands_on(h)),
-            None => Cow::Owned(reader.within(self.starts[i], ON_WAYPOINT).collect()),
-        }
+        &self.on[self.end_on[i].clone()]
     }
 }
 
