@@ -200,9 +200,39 @@ impl<'a> Prover<'a> {
     }
 
     fn evaluate(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
-        self.queries.fetch_add(q.len() as u64, Ordering::Relaxed);
+        self.evaluate_made(q.len(), |i| q[i])
+    }
+
+    /// [`Prover::evaluate`] over the `n` queries `query` makes, made a
+    /// backend call at a time: a round of a large program asks millions,
+    /// whose records, made all at once, stood at a tenth of the plan's
+    /// peak. The [`Ticker`] hears each call.
+    fn evaluate_made(
+        &self,
+        n: usize,
+        query: impl Fn(usize) -> Query + Sync,
+    ) -> Result<Vec<bool>, CollideError> {
+        self.queries.fetch_add(n as u64, Ordering::Relaxed);
+        let call = TICK_BATCH.max(self.backend.batch_hint());
+        let mut out = Vec::with_capacity(n);
+        for start in (0..n).step_by(call) {
+            let q: Vec<Query> = (start..(start + call).min(n))
+                .into_par_iter()
+                .map(&query)
+                .collect();
+            out.extend(self.evaluate_call(&q)?);
+            if let Some(tick) = self.ticker {
+                tick(out.len() as u64, n as u64);
+            }
+        }
+        Ok(out)
+    }
+
+    /// One backend call's queries: those reaching farther than the backend
+    /// answers well go to the backend beside ([`Prover::with_wide`]).
+    fn evaluate_call(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
         let Some((beside, above)) = self.wide else {
-            return self.evaluate_here(q);
+            return self.backend.evaluate(q);
         };
         // A query's margin at the head's farthest point.
         let reach = self.reach as f32;
@@ -211,7 +241,7 @@ impl<'a> Prover<'a> {
             .map(|x| x.margin + x.slope * reach > above)
             .collect();
         if !wide.contains(&true) {
-            return self.evaluate_here(q);
+            return self.backend.evaluate(q);
         }
         let pick = |far: bool| -> Vec<Query> {
             q.iter()
@@ -221,26 +251,13 @@ impl<'a> Prover<'a> {
                 .collect()
         };
         let (far, near) = (pick(true), pick(false));
-        let (near, far) = rayon::join(|| self.evaluate_here(&near), || beside.evaluate(&far));
+        let (near, far) = rayon::join(|| self.backend.evaluate(&near), || beside.evaluate(&far));
         let (mut near, mut far) = (near?.into_iter(), far?.into_iter());
         Ok(wide
             .into_iter()
             .map(|w| if w { far.next() } else { near.next() })
             .map(|v| v.expect("a verdict per query"))
             .collect())
-    }
-
-    /// [`Prover::evaluate`] on the prover's own backend.
-    fn evaluate_here(&self, q: &[Query]) -> Result<Vec<bool>, CollideError> {
-        let Some(tick) = self.ticker else {
-            return self.backend.evaluate(q);
-        };
-        let mut out = Vec::with_capacity(q.len());
-        for chunk in q.chunks(TICK_BATCH.max(self.backend.batch_hint())) {
-            out.extend(self.backend.evaluate(chunk)?);
-            tick(out.len() as u64, q.len() as u64);
-        }
-        Ok(out)
     }
 
     fn query(&self, a: &Axes, cutoff: u32, margin: f64) -> Query {
@@ -450,9 +467,9 @@ impl<'a> Prover<'a> {
                 break;
             }
             let asks = self.asks(moves, &sweeps, &samples, &round);
-            let (slot, shared, grown) = share_ends(&asks);
+            let (slot, shared, grown) = share_ends(&asks, |j| end_axes(moves, round[j]));
             let hits = self.ask_shared(moves, &samples, &round, &shared, &grown)?;
-            self.record(&mut samples, &round, &asks, (&slot, &grown), &hits);
+            self.record(moves, &mut samples, &round, &asks, (&slot, &grown), &hits);
         }
         Ok(verdict.into_iter().map(|v| v.unwrap_or(true)).collect())
     }
@@ -512,23 +529,21 @@ impl<'a> Prover<'a> {
         bounds: &[f64],
         min_step: f64,
     ) -> Vec<(usize, usize, f64)> {
-        let requests: Vec<Vec<(usize, f64)>> = samples
+        samples
             .par_iter_mut()
             .zip(verdict.par_iter_mut())
             .zip(bounds.par_iter())
-            .map(|((s, v), &d)| {
-                if v.is_some() {
-                    return Vec::new();
-                }
-                let (req, decided) = plan_requests(s, d, min_step);
-                *v = decided;
-                req
-            })
-            .collect();
-        requests
-            .iter()
             .enumerate()
-            .flat_map(|(i, r)| r.iter().map(move |&(k, level)| (i, k, level)))
+            .flat_map_iter(|(i, ((s, v), &d))| {
+                let req = if v.is_some() {
+                    Vec::new()
+                } else {
+                    let (req, decided) = plan_requests(s, d, min_step);
+                    *v = decided;
+                    req
+                };
+                req.into_iter().map(move |(k, level)| (i, k, level))
+            })
             .collect()
     }
 
@@ -548,14 +563,8 @@ impl<'a> Prover<'a> {
                 let mv = &moves[i];
                 let (margin, slope) = level_query(self.margin, &sweeps[i], self.reach, level);
                 let last = samples[i].len() - 1;
-                let end = match k {
-                    _ if samples[i][k].solo => None,
-                    0 => Some(mv.from),
-                    _ if k == last => Some(mv.to),
-                    _ => None,
-                };
                 Ask {
-                    end,
+                    end: !samples[i][k].solo && (k == 0 || k == last),
                     cutoff: mv.cutoff,
                     margin,
                     slope,
@@ -574,20 +583,15 @@ impl<'a> Prover<'a> {
         shared: &[usize],
         grown: &[Ask],
     ) -> Result<Vec<bool>, CollideError> {
-        let queries: Vec<Query> = shared
-            .par_iter()
-            .zip(grown)
-            .map(|(&j, a)| {
-                let (i, k, _) = round[j];
-                let mv = &moves[i];
-                let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
-                Query {
-                    slope: a.slope as f32,
-                    ..self.query_pose(pose, a.cutoff, a.margin)
-                }
-            })
-            .collect();
-        self.evaluate(&queries)
+        self.evaluate_made(shared.len(), |q| {
+            let (a, (i, k, _)) = (&grown[q], round[shared[q]]);
+            let mv = &moves[i];
+            let pose = self.machine.pose_along(&mv.from, &mv.to, samples[i][k].t);
+            Query {
+                slope: a.slope as f32,
+                ..self.query_pose(pose, a.cutoff, a.margin)
+            }
+        })
     }
 
     /// What a round's answers teach: a free sample's level, a shared end's
@@ -596,6 +600,7 @@ impl<'a> Prover<'a> {
     /// ask on its own from now on.
     fn record(
         &self,
+        moves: &[MoveSpec],
         samples: &mut [Vec<Sample>],
         round: &[(usize, usize, f64)],
         asks: &[Ask],
@@ -608,9 +613,10 @@ impl<'a> Prover<'a> {
             let s = &mut samples[i][k];
             if !hits[slot[j]] {
                 s.free = s.free.max(level);
-                if let Some(a) = q.end {
+                // The group shares this end's pose.
+                if q.end {
                     let e = known
-                        .entry(pose_key(&a, q.cutoff))
+                        .entry(pose_key(&end_axes(moves, round[j]), q.cutoff))
                         .or_insert(Clearance::new(q.margin, q.slope));
                     *e = e.merged(Clearance::new(q.margin, q.slope));
                 }
@@ -625,11 +631,11 @@ impl<'a> Prover<'a> {
 }
 
 /// One query a round of [`Prover::prove`] needs: a sample of a move at
-/// the `(margin, slope)` of its level; `end` is the sample's axes when it
-/// is a move's end (which neighbouring moves may share).
+/// the `(margin, slope)` of its level; `end` when the sample is a move's
+/// end (which neighbouring moves may share: [`end_axes`]).
 #[derive(Clone, Copy)]
 struct Ask {
-    end: Option<Axes>,
+    end: bool,
     cutoff: u32,
     margin: f64,
     slope: f64,
@@ -642,19 +648,30 @@ impl Ask {
     }
 }
 
+/// The axes of a round's request `(move, sample, level)` at an end of its
+/// move.
+fn end_axes(moves: &[MoveSpec], (i, k, _): (usize, usize, f64)) -> Axes {
+    if k == 0 {
+        moves[i].from
+    } else {
+        moves[i].to
+    }
+}
+
 /// Ends of moves asked in the same round at the same pose (the bead into
 /// a waypoint and the bead out of it; the pieces of a split bead) become
 /// one query asking the most any of them asks — the largest margin, slope
-/// and cutoff — which certifies each. Returns, per ask, the index of its
-/// query; per query, the ask whose pose it takes (the first of its group)
-/// and what it asks (the group's need).
-fn share_ends(asks: &[Ask]) -> (Vec<usize>, Vec<usize>, Vec<Ask>) {
+/// and cutoff — which certifies each; `end(j)` is ask `j`'s pose when it
+/// is an end. Returns, per ask, the index of its query; per query, the
+/// ask whose pose it takes (the first of its group) and what it asks (the
+/// group's need).
+fn share_ends(asks: &[Ask], end: impl Fn(usize) -> Axes) -> (Vec<usize>, Vec<usize>, Vec<Ask>) {
     let mut first: HashMap<PoseKey, usize> = HashMap::default();
     let mut slot = Vec::with_capacity(asks.len());
     let mut shared: Vec<usize> = Vec::new();
     let mut grown: Vec<Ask> = Vec::new();
     for (j, a) in asks.iter().enumerate() {
-        let group = a.end.map(|e| pose_key(&e, 0));
+        let group = a.end.then(|| pose_key(&end(j), 0));
         match group.and_then(|key| first.get(&key).copied()) {
             Some(q) => {
                 let g = &mut grown[q];
