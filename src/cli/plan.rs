@@ -170,8 +170,9 @@ pub fn run(a: PlanArgs) -> Result<()> {
     // Stages 1 and 2 need only the toolpath: they run while the scene is
     // built, and the GPU opens meanwhile.
     let opening = a.run.backend.open();
-    let (job, prepared) = LoadedJob::load_prepared(&a.scene.spec(&machine)?, &machine, &mut opts)
-        .map_err(job_error)?;
+    let (mut job, prepared) =
+        LoadedJob::load_prepared(&a.scene.spec(&machine)?, &machine, &mut opts)
+            .map_err(job_error)?;
     let backend =
         a.run
             .backend
@@ -190,6 +191,11 @@ pub fn run(a: PlanArgs) -> Result<()> {
     if let Some(line) = backend.summary() {
         show.note(&line);
     }
+    // Planned: the evaluator and the part's BVH are done with; the report
+    // draws the part from its groups.
+    let backend_name = backend.name();
+    drop(backend);
+    job.scene.release_bvh();
     let skipped = skipped_waypoints(&p, &job.toolpath);
     if a.strict {
         refuse_skips(&skipped)?;
@@ -216,7 +222,7 @@ pub fn run(a: PlanArgs) -> Result<()> {
         &PlanRun {
             source: &job.source,
             part: job.scene.part,
-            backend: backend.name(),
+            backend: backend_name,
             flipped_layers: &flipped,
             stages: &stages,
             seconds: t0.elapsed().as_secs_f64(),
@@ -231,11 +237,10 @@ pub fn run(a: PlanArgs) -> Result<()> {
             out: &out,
             names: top_level_names(&files),
         };
-        print_summary(&job, &p, &flipped, (seconds, t0), backend.name(), &written);
+        print_summary(&job, &p, &flipped, (seconds, t0), backend_name, &written);
     }
     // The command ends the process: the OS takes back the scene and the
     // plan at once, faster than freeing them piece by piece.
-    drop(backend);
     std::mem::forget(p);
     std::mem::forget(job);
     Ok(())

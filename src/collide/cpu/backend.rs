@@ -19,6 +19,10 @@ pub struct CpuBackend<'a> {
 impl<'a> CpuBackend<'a> {
     /// A backend over `scene`.
     pub fn new(scene: &'a Scene) -> Self {
+        assert!(
+            !scene.bvh_released(),
+            "a backend on a scene whose BVH was released"
+        );
         CpuBackend {
             view: SceneView::new(scene),
         }

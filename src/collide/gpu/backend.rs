@@ -55,6 +55,10 @@ pub struct GpuBackend {
 impl GpuBackend {
     /// Upload `scene` to the context's device and build the pipelines.
     pub fn new(ctx: GpuContext, scene: &Scene, opts: GpuOptions) -> Result<Self, CollideError> {
+        assert!(
+            !scene.bvh_released(),
+            "a backend on a scene whose BVH was released"
+        );
         let device = &ctx.device;
         let binding = binding_bytes(device, opts.max_binding_bytes);
         let split = SceneSplit::new(scene, binding, &ctx.summary.name)?;
