@@ -104,3 +104,20 @@ pub fn witness_hits(s: &SceneView, q: &GpuQuery, t: u32) -> bool {
     };
     tri.stamp < q.cutoff && tri_hits(s, q, tri)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A scene whose BVH was released (`plan` does so before its report)
+    /// is refused, not walked as if it held no part.
+    #[test]
+    #[should_panic(expected = "released")]
+    fn a_scene_without_its_bvh_is_refused() {
+        let mut scene = crate::default_job::scene();
+        assert!(!scene.bvh_released());
+        scene.release_bvh();
+        assert!(scene.bvh_released() && scene.part_tris.is_empty());
+        CpuBackend::new(&scene);
+    }
+}
