@@ -59,6 +59,9 @@ row "dome_cut, normals as given (--keep-normals)" "$D/dome_cut" --keep-normals
 row "simple_curve, tilted 50° about x" "$D/simple_curve" --tilt 50
 row "dome_cut, tilted 50°" "$D/dome_cut" --tilt 50
 row "dome_cut, tilted 70°" "$D/dome_cut" --tilt 70
+row "dome_cut, part from its beads (--part beads)" "$D/dome_cut" --part beads
+row "dome_cut, beads, tilted 50°" "$D/dome_cut" --part beads --tilt 50
+row "dome_cut, beads, tilted 70°" "$D/dome_cut" --part beads --tilt 70
 for m in "$@"; do
   yup=()
   case ",${YUP:-}," in *",$m,"*) yup=(--y-up) ;; esac
