@@ -491,7 +491,7 @@ impl Scene {
     /// and reports on it (`groups`, the head). `plan` releases it before
     /// its report, whose program scene and pictures would otherwise come
     /// on top of it (dome_cut `--part beads --tilt 50`: 1.04 GiB, now the
-    /// load's 0.92). A backend built on the scene afterwards refuses it.
+    /// load's 0.88). A backend built on the scene afterwards refuses it.
     pub fn release_bvh(&mut self) {
         self.part_nodes = Vec::new();
         self.part_tris = Vec::new();
