@@ -704,57 +704,33 @@ fn share_ends(asks: &[Ask], end: impl Fn(usize) -> Axes) -> (Vec<usize>, Vec<usi
 /// the move is proven free (`Some(false)`) or cannot be (`Some(true)`: a
 /// blocked interval whose half moves the head less than `min_step`).
 fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64)>, Option<bool>) {
-    // (The tolerance absorbs rounding.) One end known at the whole span
-    // covers the interval alone, whatever is known of the other.
-    let proven = |a: &Sample, b: &Sample| {
-        let span = (b.t - a.t) * (1.0 - 1e-9);
-        a.free >= span || b.free >= span || a.free + b.free >= span
-    };
-    // The levels wanted of the ends of an unproven interval.
-    let want = |a: &Sample, b: &Sample| {
-        let span = b.t - a.t;
-        if a.free >= 0.25 * span && a.free >= b.free {
-            (a.free, span - a.free)
-        } else if b.free >= 0.25 * span {
-            (span - b.free, b.free)
-        } else {
-            (0.5 * span, 0.5 * span)
-        }
-    };
-    let blocked = |a: &Sample, b: &Sample| {
-        let (wa, wb) = want(a, b);
-        (a.free < wa && a.hit <= wa) || (b.free < wb && b.hit <= wb)
-    };
     // A pose that fails at level 0 comes within the margin itself: no
     // interval around it can be proven, at any resolution.
     if s.iter().any(|x| x.hit <= 0.0) {
         return (Vec::new(), Some(true));
     }
-    let plain = plain_asks(s, &proven, &blocked, &want);
+    let stuck: Vec<usize> = (0..s.len() - 1)
+        .filter(|&k| !proven(&s[k], &s[k + 1]) && blocked(&s[k], &s[k + 1]))
+        .collect();
+    let plain = plain_asks(s, &stuck);
     if !plain.is_empty() {
         return (plain, None);
     }
-    // Splits.
-    let mut k = 0;
-    while k + 1 < s.len() {
+    // Splits, from the last so that the earlier indices stand.
+    for &k in stuck.iter().rev() {
         let (a, b) = (s[k], s[k + 1]);
-        if !proven(&a, &b) && blocked(&a, &b) {
-            if 0.5 * d * (b.t - a.t) < min_step {
-                return (Vec::new(), Some(true));
-            }
-            s.insert(
-                k + 1,
-                Sample {
-                    t: 0.5 * (a.t + b.t),
-                    free: f64::NEG_INFINITY,
-                    hit: f64::INFINITY,
-                    solo: false,
-                },
-            );
-            k += 2;
-        } else {
-            k += 1;
+        if 0.5 * d * (b.t - a.t) < min_step {
+            return (Vec::new(), Some(true));
         }
+        s.insert(
+            k + 1,
+            Sample {
+                t: 0.5 * (a.t + b.t),
+                free: f64::NEG_INFINITY,
+                hit: f64::INFINITY,
+                solo: false,
+            },
+        );
     }
     // Queries for the ends of every interval not yet proven.
     let mut need: Vec<(usize, f64)> = Vec::new();
@@ -781,33 +757,52 @@ fn plan_requests(s: &mut Vec<Sample>, d: f64, min_step: f64) -> (Vec<(usize, f64
     (need, None)
 }
 
+/// Is the interval between samples `a` and `b` proven? (The tolerance
+/// absorbs rounding.) One end known at the whole span covers the
+/// interval alone, whatever is known of the other.
+fn proven(a: &Sample, b: &Sample) -> bool {
+    let span = (b.t - a.t) * (1.0 - 1e-9);
+    a.free >= span || b.free >= span || a.free + b.free >= span
+}
+
+/// The levels wanted of the ends of an unproven interval.
+fn want(a: &Sample, b: &Sample) -> (f64, f64) {
+    let span = b.t - a.t;
+    if a.free >= 0.25 * span && a.free >= b.free {
+        (a.free, span - a.free)
+    } else if b.free >= 0.25 * span {
+        (span - b.free, b.free)
+    } else {
+        (0.5 * span, 0.5 * span)
+    }
+}
+
+/// Has an end of the interval already failed at the level wanted of it?
+fn blocked(a: &Sample, b: &Sample) -> bool {
+    let (wa, wb) = want(a, b);
+    (a.free < wa && a.hit <= wa) || (b.free < wb && b.hit <= wb)
+}
+
 /// A move blocked at this many intervals or more asks its blocking poses
 /// at level 0 before any of those intervals is split (`plain_asks`).
 const PLAIN_AFTER: usize = 8;
 
-/// The level-0 asks of a move blocked at [`PLAIN_AFTER`] intervals or
-/// more: each blocking pose not known free at level 0 yet, asked at the
-/// plain margin. Halving a move that passes through material along a
-/// stretch doubles its samples there each round until they are
-/// `min_step` apart, every one a hit (dome_cut's bead model tilted 50°:
-/// 18.2 M graph queries, 2.9 M with these asks); one of its poses within
-/// the margin settles it at once. A move that only grazes finds its poses free at
-/// level 0 and is split on a round later; the verdicts are the same, as
-/// a pose within the margin is one no proof can cover.
-fn plain_asks(
-    s: &[Sample],
-    proven: &impl Fn(&Sample, &Sample) -> bool,
-    blocked: &impl Fn(&Sample, &Sample) -> bool,
-    want: &impl Fn(&Sample, &Sample) -> (f64, f64),
-) -> Vec<(usize, f64)> {
-    let stuck: Vec<usize> = (0..s.len() - 1)
-        .filter(|&k| !proven(&s[k], &s[k + 1]) && blocked(&s[k], &s[k + 1]))
-        .collect();
+/// The level-0 asks of a move blocked at the intervals `stuck` (each
+/// from `s[k]` to `s[k + 1]`), [`PLAIN_AFTER`] or more: each blocking
+/// pose not known free at level 0 yet, asked at the plain margin.
+/// Halving a move that passes through material along a stretch doubles
+/// its samples there each round until they are `min_step` apart, every
+/// one a hit (dome_cut's bead model tilted 50°: 18.2 M graph queries,
+/// 2.9 M with these asks); one of its poses within the margin settles it
+/// at once. A move that only grazes finds its poses free at level 0 and
+/// is split a round later; the verdicts are the same, as a pose within
+/// the margin is one no proof can cover.
+fn plain_asks(s: &[Sample], stuck: &[usize]) -> Vec<(usize, f64)> {
     let mut asks: Vec<(usize, f64)> = Vec::new();
     if stuck.len() < PLAIN_AFTER {
         return asks;
     }
-    for k in stuck {
+    for &k in stuck {
         let (wa, wb) = want(&s[k], &s[k + 1]);
         for (idx, w) in [(k, wa), (k + 1, wb)] {
             let x = &s[idx];

@@ -109,7 +109,7 @@ fn uncollapsed(tris: &[GpuTriangle], layer_lift: f32, params: &BvhBuildParams) -
     // PLOC reads only the primitives' boxes: boxes, not triangles, are
     // handed over (32 bytes a primitive, not 48; the load's peak on a part
     // of millions of bead triangles).
-    let obv: Vec<Aabb> = tris
+    let boxes: Vec<Aabb> = tris
         .par_iter()
         .map(|t| {
             let lift = match t.layer {
@@ -125,14 +125,14 @@ fn uncollapsed(tris: &[GpuTriangle], layer_lift: f32, params: &BvhBuildParams) -
             .aabb()
         })
         .collect();
-    let mut bvh = PlocBuilder::with_capacity(obv.len()).build(
+    let mut bvh = PlocBuilder::with_capacity(boxes.len()).build(
         params.ploc_search_distance,
-        &obv,
-        (0..obv.len() as u32).collect(),
+        &boxes,
+        (0..boxes.len() as u32).collect(),
         params.sort_precision,
         params.search_depth_threshold,
     );
-    drop(obv);
+    drop(boxes);
     ReinsertionOptimizer::default().run(&mut bvh, params.reinsertion_batch_ratio, None);
     bvh
 }
