@@ -1,6 +1,7 @@
 //! What a long `plan` run shows while it works: on a terminal, a bar per
 //! stage with the queries of the current batch, their rate and an ETA;
-//! with `-v`, one line per stage (seconds, collision queries) as each
+//! with `-v`, one line per stage (seconds, collision queries, the backend
+//! calls that answered them and the seconds they took) as each
 //! stage ends — on stdout, so the lines arrive as they happen when the
 //! output goes to a pipe or a log.
 
@@ -45,6 +46,27 @@ impl Reporter {
         self.note(&line);
     }
 
+    /// A planner's stage under `-v`: the [`Reporter::stage_line`], then
+    /// the backend calls that answered its queries and their wall time,
+    /// the evaluator's share of the stage.
+    fn planner_stage_line(&self, s: &maamplan::plan::Stage) {
+        if !self.verbose {
+            return;
+        }
+        let a = s.answering;
+        let mut line = format!(
+            "stage {:<14} {:>8.3} s {:>12} collision queries",
+            s.name, s.seconds, s.queries
+        );
+        if a.calls > 0 {
+            line += &format!(" in {} calls, {:.3} s answering", a.calls, a.seconds);
+        }
+        if a.beside > 0 {
+            line += &format!(" ({} beside in {:.3} s)", a.beside, a.beside_seconds);
+        }
+        self.note(&line);
+    }
+
     /// A line of detail under `-v` (where the head's data came from).
     pub fn note(&self, line: &str) {
         if !self.verbose {
@@ -80,7 +102,7 @@ impl Reporter {
                 }
                 self.bar.set_position(done);
             }
-            Progress::Done(s) => self.stage_line(&s.name, s.seconds, Some(s.queries)),
+            Progress::Done(s) => self.planner_stage_line(s),
         }
     }
 

@@ -52,7 +52,7 @@ pub use verify::{input_axes, INPUT_STEP};
 use crate::collide::cpu::CpuBackend;
 use crate::collide::{Backend, CollideError};
 use crate::kinematics::{Axes, Machine};
-use crate::prove::Prover;
+use crate::prove::{Answering, Prover};
 use crate::scene::Scene;
 use crate::toolpath::Toolpath;
 use candidates::Sampling;
@@ -295,6 +295,9 @@ pub struct Stage {
     pub seconds: f64,
     /// Collision queries answered.
     pub queries: u64,
+    /// The collision backend's calls and the wall time spent in them:
+    /// the evaluator's share of the stage.
+    pub answering: Answering,
 }
 
 /// Does a half-turn about the head axis map the head onto itself? Then the
@@ -393,6 +396,7 @@ pub fn plan_prepared(
         name: StageName::Input.as_str().into(),
         seconds: input_seconds,
         queries: input_prover.queries(),
+        answering: input_prover.answering(),
     });
     Ok(Plan {
         waypoints: verify::with_input(verified.waypoints, &input),
@@ -439,6 +443,7 @@ struct StageClock<'t> {
     stages: Vec<Stage>,
     since: Instant,
     asked: u64,
+    answering: Answering,
 }
 
 impl<'t> StageClock<'t> {
@@ -448,6 +453,7 @@ impl<'t> StageClock<'t> {
             stages: Vec::new(),
             since: Instant::now(),
             asked: 0,
+            answering: Answering::default(),
         }
     }
 
@@ -459,12 +465,15 @@ impl<'t> StageClock<'t> {
         let out = stage();
         release_freed_memory();
         let asked = prover.queries();
+        let answering = prover.answering();
         self.record(Stage {
             name: name.as_str().into(),
             seconds: self.since.elapsed().as_secs_f64(),
             queries: asked - self.asked,
+            answering: answering - self.answering,
         });
         self.asked = asked;
+        self.answering = answering;
         self.since = Instant::now();
         out
     }
@@ -536,5 +545,38 @@ mod tests {
         assert_eq!(begun, all[2..7]);
         let kept: Vec<&str> = p.stages.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(kept, all);
+    }
+
+    /// Each stage records the backend calls made while it ran and the
+    /// time they took, within its own: the stages that ask nothing
+    /// record none, and every call is some stage's.
+    #[test]
+    fn stages_record_the_backend_calls_they_made() {
+        let job = crate::default_job::job();
+        let scene = crate::default_job::scene();
+        let m = Machine::default();
+        let backend = crate::collide::cpu::CpuBackend::new(&scene);
+        let p = plan(
+            &scene,
+            &job.toolpath,
+            &m,
+            &backend,
+            &PlanOptions::default(),
+            &mut |_| {},
+        )
+        .unwrap();
+        for s in &p.stages {
+            let a = s.answering;
+            assert_eq!(a.calls > 0, s.queries > 0, "{}: {a:?}", s.name);
+            assert!(
+                a.seconds <= s.seconds,
+                "{}: {a:?} in {} s",
+                s.name,
+                s.seconds
+            );
+            assert_eq!(a.beside, 0, "the cpu backend sends nothing beside");
+        }
+        let columns = p.stages.iter().find(|s| s.name == "columns").unwrap();
+        assert!(columns.answering.seconds > 0.0);
     }
 }

@@ -119,6 +119,7 @@ impl Prepared {
             name: name.as_str().into(),
             seconds: clock.elapsed().as_secs_f64(),
             queries: 0,
+            answering: Default::default(),
         });
     }
 

@@ -12,4 +12,4 @@ pub use bounds::{
     displacement_bound, pieces_bound, sweep, tip_deviation_bound, tip_subdivision,
     tip_subdivision_where, Sweep,
 };
-pub use prover::{MoveSpec, Prover, Ticker};
+pub use prover::{Answering, MoveSpec, Prover, Ticker};

@@ -28,6 +28,7 @@ use rayon::prelude::*;
 use rustc_hash::FxHashMap as HashMap;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
+use std::time::Instant;
 
 /// One joint-linear move to prove: from `from` to `to` with the material
 /// of stamps below `cutoff` present.
@@ -119,11 +120,45 @@ pub struct Prover<'a> {
     /// poses are not kept: they are rarely asked again).
     pose_clearances: Mutex<HashMap<PoseKey, Clearance>>,
     queries: AtomicU64,
+    /// Backend calls made, the nanoseconds spent in them, and of those
+    /// the queries answered beside and the nanoseconds that took.
+    calls: AtomicU64,
+    answering_ns: AtomicU64,
+    beside: AtomicU64,
+    beside_ns: AtomicU64,
     /// Hears `(done, total)` queries of each batch as it is answered.
     ticker: Option<Ticker<'a>>,
     /// Where queries that reach farther than the backend answers well
     /// ([`Backend::wide_above`]) go instead, and that reach (mm).
     wide: Option<(&'a dyn Backend, f32)>,
+}
+
+/// What a [`Prover`]'s backend calls took, so far or over a stage (the
+/// difference of two readings): the evaluator's share of the planner's
+/// time, the rest being the planner's own work.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Answering {
+    /// Backend calls made.
+    pub calls: u64,
+    /// The wall time spent in them (s).
+    pub seconds: f64,
+    /// Queries sent to the backend beside ([`Prover::with_wide`]).
+    pub beside: u64,
+    /// The wall time the backend beside took over them (s), at the same
+    /// time as the backend answered the others.
+    pub beside_seconds: f64,
+}
+
+impl std::ops::Sub for Answering {
+    type Output = Answering;
+    fn sub(self, earlier: Answering) -> Answering {
+        Answering {
+            calls: self.calls - earlier.calls,
+            seconds: self.seconds - earlier.seconds,
+            beside: self.beside - earlier.beside,
+            beside_seconds: self.beside_seconds - earlier.beside_seconds,
+        }
+    }
 }
 
 /// Where a [`Prover`] reports the progress of its batches.
@@ -167,6 +202,10 @@ impl<'a> Prover<'a> {
             move_verdicts: Mutex::new(HashMap::default()),
             pose_clearances: Mutex::new(HashMap::default()),
             queries: AtomicU64::new(0),
+            calls: AtomicU64::new(0),
+            answering_ns: AtomicU64::new(0),
+            beside: AtomicU64::new(0),
+            beside_ns: AtomicU64::new(0),
             ticker: None,
             wide: None,
         }
@@ -191,6 +230,17 @@ impl<'a> Prover<'a> {
     /// Collision queries answered so far.
     pub fn queries(&self) -> u64 {
         self.queries.load(Ordering::Relaxed)
+    }
+
+    /// The backend calls made so far and the wall time they took.
+    pub fn answering(&self) -> Answering {
+        let seconds = |ns: &AtomicU64| ns.load(Ordering::Relaxed) as f64 * 1e-9;
+        Answering {
+            calls: self.calls.load(Ordering::Relaxed),
+            seconds: seconds(&self.answering_ns),
+            beside: self.beside.load(Ordering::Relaxed),
+            beside_seconds: seconds(&self.beside_ns),
+        }
     }
 
     /// The margin poses are checked with: the safety margin plus the
@@ -220,7 +270,7 @@ impl<'a> Prover<'a> {
                 .into_par_iter()
                 .map(&query)
                 .collect();
-            out.extend(self.evaluate_call(&q)?);
+            out.extend(self.timed(|| self.evaluate_call(&q))?);
             if let Some(tick) = self.ticker {
                 tick(out.len() as u64, n as u64);
             }
@@ -251,7 +301,17 @@ impl<'a> Prover<'a> {
                 .collect()
         };
         let (far, near) = (pick(true), pick(false));
-        let (near, far) = rayon::join(|| self.backend.evaluate(&near), || beside.evaluate(&far));
+        let (near, far) = rayon::join(
+            || self.backend.evaluate(&near),
+            || {
+                let asked = Instant::now();
+                let out = beside.evaluate(&far);
+                let ns = asked.elapsed().as_nanos() as u64;
+                self.beside.fetch_add(far.len() as u64, Ordering::Relaxed);
+                self.beside_ns.fetch_add(ns, Ordering::Relaxed);
+                out
+            },
+        );
         let (mut near, mut far) = (near?.into_iter(), far?.into_iter());
         Ok(wide
             .into_iter()
@@ -360,14 +420,30 @@ impl<'a> Prover<'a> {
         ((sw.tip / self.step).ceil() as usize).clamp(1, MAX_FIRST_SAMPLES)
     }
 
-    /// Record that the pose `(a, cutoff)` has the verdict of a pose it is
-    /// congruent to (the same head geometry turned by a symmetry) at the
-    /// pose margin.
-    pub fn same_as(&self, a: &Axes, cutoff: u32, like: &Axes) {
-        let mut known = self.pose_clearances.lock().expect("prover cache");
-        if let Some(k) = known.get(&pose_key(like, cutoff)).copied() {
-            known.insert(pose_key(a, cutoff), k);
+    /// Record that each pose `(a, cutoff)` of `poses` has the verdict of
+    /// the pose `(like, cutoff)` it is congruent to (the same head
+    /// geometry turned by a symmetry) at the pose margin, where that one's
+    /// is known. The keys are made and looked up on every core, under one
+    /// lock: a steep part's columns record a mirror for each of a million
+    /// poses, which one lock and two lookups at a time made a fifth of
+    /// the eager search's own work.
+    pub fn same_as_each(&self, poses: &[(Axes, u32, Axes)]) {
+        if poses.is_empty() {
+            return;
         }
+        let mut known = self.pose_clearances.lock().expect("prover cache");
+        let found: Vec<(PoseKey, Clearance)> = {
+            let known: &HashMap<PoseKey, Clearance> = &known;
+            poses
+                .par_iter()
+                .filter_map(|(a, cutoff, like)| {
+                    let k = known.get(&pose_key(like, *cutoff))?;
+                    Some((pose_key(a, *cutoff), *k))
+                })
+                .collect()
+        };
+        known.reserve(found.len());
+        known.extend(found);
     }
 
     /// Do the poses `(axes, cutoff)` come within `margin` of existing
@@ -428,7 +504,17 @@ impl<'a> Prover<'a> {
             .collect();
         let samples: u64 = asked.iter().map(|m| m.intervals as u64 - 1).sum();
         self.queries.fetch_add(samples, Ordering::Relaxed);
-        self.backend.sampled_moves(self.machine, &asked)
+        self.timed(|| self.backend.sampled_moves(self.machine, &asked))
+    }
+
+    /// `call` to the backend, counted and timed ([`Prover::answering`]).
+    fn timed<T>(&self, call: impl FnOnce() -> T) -> T {
+        let asked = Instant::now();
+        let out = call();
+        let ns = asked.elapsed().as_nanos() as u64;
+        self.calls.fetch_add(1, Ordering::Relaxed);
+        self.answering_ns.fetch_add(ns, Ordering::Relaxed);
+        out
     }
 
     /// Does each move come within the margin of existing material at any
@@ -1104,5 +1190,52 @@ mod tests {
             far.len(),
             near.len()
         );
+    }
+
+    /// A pose recorded the same as a pose known free is answered free
+    /// without a query; one recorded the same as a pose nothing is known
+    /// of is not recorded, and is asked.
+    #[test]
+    fn a_pose_the_same_as_a_free_one_is_answered_without_a_query() {
+        let (m, backend, way) = free_chain();
+        let p = prover(&m, &backend);
+        let margin = p.pose_margin();
+        assert_eq!(p.poses_at(&[(way[0], 3)], margin).unwrap(), [false]);
+        p.same_as_each(&[(way[1], 3, way[0]), (way[2], 3, way[3])]);
+        let asked = backend.asked.lock().unwrap().len();
+        assert_eq!(p.poses_at(&[(way[1], 3)], margin).unwrap(), [false]);
+        assert_eq!(backend.asked.lock().unwrap().len(), asked, "recorded");
+        p.poses_at(&[(way[2], 3)], margin).unwrap();
+        assert_eq!(backend.asked.lock().unwrap().len(), asked + 1, "not known");
+        // Another cutoff is another pose.
+        p.poses_at(&[(way[1], 4)], margin).unwrap();
+        assert_eq!(backend.asked.lock().unwrap().len(), asked + 2);
+    }
+
+    /// Every backend call is counted and timed, and the queries sent
+    /// beside are counted apart.
+    #[test]
+    fn the_backend_calls_are_counted_and_timed() {
+        let m = Machine::default();
+        let pose = m.pose(&axes(&m, [0.0, 0.0, 40.0], 10.0, 0.0));
+        let queries: Vec<Query> = (0..30)
+            .map(|k| Query {
+                pose,
+                cutoff: 1,
+                margin: 0.1 * k as f32,
+                slope: 0.0,
+            })
+            .collect();
+        let (narrow, beside) = (Narrow(profile(0.5, -1.0)), profile(0.5, -1.0));
+        let p = Prover::new(&m, &narrow, 36.0, 0.05, 0.3).with_wide(&beside);
+        assert_eq!(p.answering(), Answering::default());
+        p.evaluate(&queries).unwrap();
+        p.evaluate(&queries[..5]).unwrap();
+        let a = p.answering();
+        assert_eq!(a.calls, 2);
+        assert_eq!(a.beside as usize, beside.asked.lock().unwrap().len());
+        assert!(a.beside > 0 && a.beside < 30, "{a:?}");
+        assert!(a.seconds > 0.0 && a.beside_seconds > 0.0, "{a:?}");
+        assert_eq!((a - a).calls, 0);
     }
 }

@@ -258,14 +258,17 @@ impl<'a> Columns<'a> {
                 .map(|hit| (!hit).then_some(Status::Free))
                 .collect()
         };
+        if self.setup.symmetric {
+            // The mirror is the same head geometry: the same verdict.
+            let mirrors: Vec<(Axes, u32, Axes)> = owner
+                .iter()
+                .zip(&queries)
+                .flat_map(|(&k, q)| cand[k][1..].iter().map(|a| (*a, q.1, q.0)))
+                .collect();
+            prover.same_as_each(&mirrors);
+        }
         let mut free = vec![Vec::new(); items.len()];
         for ((&k, entered), q) in owner.iter().zip(entered).zip(&queries) {
-            if self.setup.symmetric {
-                // The mirror is the same head geometry: the same verdict.
-                for a in &cand[k][1..] {
-                    prover.same_as(a, q.1, &q.0);
-                }
-            }
             let Some(status) = entered else {
                 continue;
             };
@@ -447,11 +450,13 @@ impl<'a> Columns<'a> {
         for &g in &probes {
             self.free_at[g] = 0;
         }
-        for ((g, bits, configs), &hit) in items.iter().zip(&hits) {
+        let mirrors: Vec<(Axes, u32, Axes)> = items
+            .iter()
+            .flat_map(|(g, _, configs)| configs[1..].iter().map(|a| (*a, cutoff(*g), configs[0])))
+            .collect();
+        prover.same_as_each(&mirrors);
+        for ((g, bits, _), &hit) in items.iter().zip(&hits) {
             self.offered[*g] = true;
-            for &a in &configs[1..] {
-                prover.same_as(&a, cutoff(*g), &configs[0]);
-            }
             if !hit {
                 for &bit in bits {
                     self.free_at[*g] |= 1u128 << bit;
@@ -742,6 +747,7 @@ impl<'a> Columns<'a> {
         // waypoint's own orientation is held to clearance first).
         let hits = prover.poses_wide(&items, &needs)?;
         let mut died = Vec::new();
+        let mut same = Vec::new();
         for ((&(g, pose), &(a, c)), hit) in which.iter().zip(&items).zip(hits) {
             let status = if hit { Status::Hit } else { Status::Free };
             for (k, node) in self.nodes[g].iter_mut().enumerate() {
@@ -749,7 +755,7 @@ impl<'a> Columns<'a> {
                     node.status = status;
                     if !hit && self.configs[g][k] != a {
                         // A mirror or a winding: the same head geometry.
-                        prover.same_as(&self.configs[g][k], c, &a);
+                        same.push((self.configs[g][k], c, a));
                     }
                 }
             }
@@ -760,6 +766,7 @@ impl<'a> Columns<'a> {
                 }
             }
         }
+        prover.same_as_each(&same);
         died.sort_unstable();
         died.dedup();
         Ok(died)
