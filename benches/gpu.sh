@@ -11,9 +11,13 @@
 #
 # Prints, per round: `bench` on simple_curve's mix at 20,000 poses
 # (gpu, cpu, parry) and at 160,000 (gpu, cpu); then `plan` on each model
-# with each backend, and whether the gpu's plan is byte-identical to the
-# cpu's (plan.csv, and the G-code but for its command line). Exits 1 when
-# a plan differs or any command fails.
+# (and dome_cut tilted 50° and 70°, the dense rows) with each backend:
+# the stages that ask collision queries, each with the backend calls that
+# answered them and the seconds those took (the rest of a stage is the
+# planner's own work), the gpu's own line and the wall time; and whether
+# the gpu's plan is byte-identical to the cpu's (plan.csv, and the G-code
+# but for its command line). Exits 1 when a plan differs or any command
+# fails.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 D=${1:-../shared/datasets/zhang2021}
@@ -43,12 +47,14 @@ plan() {
     tail -3 "$TMP/$name-$backend.log" >&2
     exit 1
   }
-  grep -E '^stage (load|columns|graph|input)|gpu:|planned in' "$TMP/$name-$backend.log"
+  grep -E '^stage (load|columns|graph|program|input)|gpu:|planned in' "$TMP/$name-$backend.log" |
+    sed -E 's/; wrote .*//; s/ \[batches of.*//'
 }
 status=0
 for k in $(seq "$ROUNDS"); do
   for row in "simple_curve $D/simple_curve" "tilted $D/simple_curve --tilt 50" \
-    "freeform $D/freeform" "dome_cut $D/dome_cut"; do
+    "freeform $D/freeform" "dome_cut $D/dome_cut" \
+    "dome_cut_tilt50 $D/dome_cut --tilt 50" "dome_cut_tilt70 $D/dome_cut --tilt 70"; do
     set -- $row
     name=$1
     shift
