@@ -235,20 +235,21 @@ impl Columns<'_> {
         let (rot, opts) = (self.setup.machine.rotary, self.setup.opts);
         let mut round = 1u32;
         while !open.is_empty() {
-            let mut items = Vec::new();
-            for &g in open.iter() {
-                let sampled = candidates::round(
-                    self.centre[g],
-                    0,
-                    round,
-                    opts.sampling,
-                    opts.beta,
-                    opts.alpha,
-                );
-                for d in sampled {
-                    items.push((g, ik_angles(rot, d)));
-                }
-            }
+            let centre = &self.centre;
+            let items: Vec<Offer> = open
+                .par_iter()
+                .flat_map_iter(|&g| {
+                    let sampled = candidates::round(
+                        centre[g],
+                        0,
+                        round,
+                        opts.sampling,
+                        opts.beta,
+                        opts.alpha,
+                    );
+                    sampled.into_iter().map(move |d| (g, ik_angles(rot, d)))
+                })
+                .collect();
             if items.is_empty() {
                 break; // Sampling exhausted.
             }
@@ -272,18 +273,21 @@ impl Columns<'_> {
         let mut lo = 0.0;
         while !open.is_empty() && lo <= std::f64::consts::PI {
             let hi = lo + shell;
-            let mut items = Vec::new();
-            for &g in open.iter() {
-                let c = DVec3::from(self.centre[g]);
-                let mut near: Vec<(f64, usize)> = dirs
-                    .iter()
-                    .enumerate()
-                    .map(|(k, d)| (d.dot(c).clamp(-1.0, 1.0).acos(), k))
-                    .filter(|&(a, _)| a >= lo && a < hi)
-                    .collect();
-                near.sort_by(|a, b| a.0.total_cmp(&b.0));
-                items.extend(near.into_iter().map(|(_, k)| (g, grid[k])));
-            }
+            let (centre, dirs, grid) = (&self.centre, &dirs, &grid);
+            let items: Vec<Offer> = open
+                .par_iter()
+                .flat_map_iter(|&g| {
+                    let c = DVec3::from(centre[g]);
+                    let mut near: Vec<(f64, usize)> = dirs
+                        .iter()
+                        .enumerate()
+                        .map(|(k, d)| (d.dot(c).clamp(-1.0, 1.0).acos(), k))
+                        .filter(|&(a, _)| a >= lo && a < hi)
+                        .collect();
+                    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    near.into_iter().map(move |(_, k)| (g, grid[k]))
+                })
+                .collect();
             self.offer_to_open(prover, &items, open)?;
             lo = hi;
         }

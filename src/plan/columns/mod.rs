@@ -116,6 +116,38 @@ fn probe_positions(n: usize) -> Vec<usize> {
 /// with.
 type Next = (u32, Axes, Status);
 
+/// The feasible configurations of an IK pair `[solution, mirror]`, at
+/// most two, held in place: an offer makes one per item, millions in a
+/// steep part's eager search, where a vector each was an allocation made
+/// on every core and freed on one.
+#[derive(Clone, Copy)]
+pub(super) struct Feasible {
+    axes: [Axes; 2],
+    len: u8,
+}
+
+impl Feasible {
+    /// The configurations of `pair` that are `Some`, in order.
+    fn of(pair: [Option<Axes>; 2]) -> Self {
+        let mut f = Feasible {
+            axes: [Axes::default(); 2],
+            len: 0,
+        };
+        for a in pair.into_iter().flatten() {
+            f.axes[f.len as usize] = a;
+            f.len += 1;
+        }
+        f
+    }
+}
+
+impl std::ops::Deref for Feasible {
+    type Target = [Axes];
+    fn deref(&self) -> &[Axes] {
+        &self.axes[..self.len as usize]
+    }
+}
+
 /// Waypoints whose next configurations [`Columns::refill`] finds at once.
 const REFILL_BLOCK: usize = 1 << 14;
 
@@ -220,13 +252,9 @@ impl<'a> Columns<'a> {
         items: &[(usize, [(f64, f64); 2])],
         likely_free: bool,
     ) -> Result<Vec<bool>, PlanError> {
-        let cand: Vec<Vec<Axes>> = items
+        let cand: Vec<Feasible> = items
             .par_iter()
-            .map(|&(g, pair)| {
-                pair.iter()
-                    .filter_map(|&tc| self.setup.feasible(g, tc))
-                    .collect()
-            })
+            .map(|&(g, pair)| Feasible::of(pair.map(|tc| self.setup.feasible(g, tc))))
             .collect();
         let mut queries = Vec::new();
         let mut owner = Vec::new();
@@ -267,25 +295,29 @@ impl<'a> Columns<'a> {
                 .collect();
             prover.same_as_each(&mirrors);
         }
-        let mut free = vec![Vec::new(); items.len()];
-        for ((&k, entered), q) in owner.iter().zip(entered).zip(&queries) {
-            let Some(status) = entered else {
-                continue;
-            };
-            if self.setup.symmetric {
-                free[k].extend(cand[k].iter().map(|&a| (a, status)));
-            } else {
-                free[k].push((q.0, status));
-            }
-        }
+        // Per item, its free configurations: a run of `entered` (a
+        // symmetric head's pair is one query, entered whole).
         let cap = self.setup.opts.max_configs;
+        let mut at = 0;
         for (k, &(g, _)) in items.iter().enumerate() {
             // A symmetric head's pair is one pose; otherwise each solution.
             let mut pose = self.next_pose(g);
-            for (a, status) in free[k].drain(..) {
-                let room = status == Status::Tight || self.live_count(g) < cap;
-                if room && self.push_config(g, a, status, pose) {
-                    pose += (!self.setup.symmetric) as u32;
+            while at < owner.len() && owner[at] == k {
+                let (q, status) = (queries[at], entered[at]);
+                at += 1;
+                let Some(status) = status else {
+                    continue;
+                };
+                let free: &[Axes] = if self.setup.symmetric {
+                    &cand[k]
+                } else {
+                    std::slice::from_ref(&q.0)
+                };
+                for &a in free {
+                    let room = status == Status::Tight || self.live_count(g) < cap;
+                    if room && self.push_config(g, a, status, pose) {
+                        pose += (!self.setup.symmetric) as u32;
+                    }
                 }
             }
         }
@@ -300,7 +332,7 @@ impl<'a> Columns<'a> {
         &self,
         prover: &Prover,
         items: &[(usize, [(f64, f64); 2])],
-        cand: &[Vec<Axes>],
+        cand: &[Feasible],
         queries: &[(Axes, u32)],
         owner: &[usize],
     ) -> Vec<(f64, f64)> {
@@ -422,29 +454,32 @@ impl<'a> Columns<'a> {
             .flat_map(|r| probe_positions(r.len()).into_iter().map(|i| r.start + i))
             .collect();
         // Every first-round variant of every probe, asked at once (a
-        // half-turn-symmetric head's pair as one query).
-        let firsts: Vec<Vec<[(f64, f64); 2]>> =
-            probes.par_iter().map(|&g| self.first_round(g)).collect();
-        let mut items: Vec<(usize, Vec<usize>, Vec<Axes>)> = Vec::new();
-        for (&g, round) in probes.iter().zip(&firsts) {
-            for (i, pair) in round.iter().enumerate().take(PROBED_ITEMS) {
-                let mut each = Vec::new();
-                for (sol, &tc) in pair.iter().enumerate() {
-                    if let Some(a) = self.setup.feasible(g, tc) {
-                        each.push((2 * i + sol, a));
+        // half-turn-symmetric head's pair as one query): per item, its
+        // waypoint, its variants' bits (`2 · item + solution`) and their
+        // configurations.
+        let symmetric = self.setup.symmetric;
+        let items: Vec<(usize, u128, Feasible)> = probes
+            .par_iter()
+            .flat_map_iter(|&g| {
+                let round = self.first_round(g);
+                let mut items = Vec::new();
+                for (i, pair) in round.iter().enumerate().take(PROBED_ITEMS) {
+                    let each = pair.map(|tc| self.setup.feasible(g, tc));
+                    let bit = |sol: usize| 1u128 << (2 * i + sol);
+                    if symmetric && each.iter().any(Option::is_some) {
+                        let bits = (0..2).filter(|&s| each[s].is_some()).map(bit).sum();
+                        items.push((g, bits, Feasible::of(each)));
+                    } else {
+                        for (sol, a) in each.into_iter().enumerate() {
+                            if let Some(a) = a {
+                                items.push((g, bit(sol), Feasible::of([Some(a), None])));
+                            }
+                        }
                     }
                 }
-                if self.setup.symmetric && !each.is_empty() {
-                    items.push((
-                        g,
-                        each.iter().map(|e| e.0).collect(),
-                        each.iter().map(|e| e.1).collect(),
-                    ));
-                } else {
-                    items.extend(each.into_iter().map(|(bit, a)| (g, vec![bit], vec![a])));
-                }
-            }
-        }
+                items
+            })
+            .collect();
         let asked: Vec<(Axes, u32)> = items.iter().map(|(g, _, a)| (a[0], cutoff(*g))).collect();
         let hits = prover.poses(&asked)?;
         for &g in &probes {
@@ -458,16 +493,14 @@ impl<'a> Columns<'a> {
         for ((g, bits, _), &hit) in items.iter().zip(&hits) {
             self.offered[*g] = true;
             if !hit {
-                for &bit in bits {
-                    self.free_at[*g] |= 1u128 << bit;
-                }
+                self.free_at[*g] |= bits;
             }
         }
         // The probes' columns: their free variants, in order, up to the cap.
         let cap = self.setup.opts.max_configs;
         for ((g, _, configs), &hit) in items.iter().zip(&hits) {
             let pose = self.next_pose(*g);
-            for &a in configs {
+            for &a in configs.iter() {
                 if !hit && self.live_count(*g) < cap {
                     self.push_config(*g, a, Status::Free, pose);
                 }
