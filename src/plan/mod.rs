@@ -521,25 +521,13 @@ mod tests {
     /// before the plan began, only end).
     #[test]
     fn stages_begin_and_end_under_one_name() {
-        let job = crate::default_job::job();
-        let scene = crate::default_job::scene();
-        let m = Machine::default();
-        let backend = crate::collide::cpu::CpuBackend::new(&scene);
         let mut begun = Vec::new();
         let mut ended = Vec::new();
-        let p = plan(
-            &scene,
-            &job.toolpath,
-            &m,
-            &backend,
-            &PlanOptions::default(),
-            &mut |e| match e {
-                Progress::Stage(name) => begun.push(name.as_str().to_string()),
-                Progress::Done(s) => ended.push(s.name.clone()),
-                Progress::Queries { .. } => {}
-            },
-        )
-        .unwrap();
+        let p = default_plan(&mut |e| match e {
+            Progress::Stage(name) => begun.push(name.as_str().to_string()),
+            Progress::Done(s) => ended.push(s.name.clone()),
+            Progress::Queries { .. } => {}
+        });
         let all: Vec<&str> = StageName::ALL.iter().map(|s| s.as_str()).collect();
         assert_eq!(ended, all);
         assert_eq!(begun, all[2..7]);
@@ -547,24 +535,23 @@ mod tests {
         assert_eq!(kept, all);
     }
 
-    /// Each stage records the backend calls made while it ran and the
-    /// time they took, within its own: the stages that ask nothing
-    /// record none, and every call is some stage's.
-    #[test]
-    fn stages_record_the_backend_calls_they_made() {
+    /// The embedded default job planned with the default settings on the
+    /// cpu backend, `progress` hearing it.
+    fn default_plan(progress: &mut (dyn FnMut(Progress) + Send)) -> Plan {
         let job = crate::default_job::job();
         let scene = crate::default_job::scene();
         let m = Machine::default();
         let backend = crate::collide::cpu::CpuBackend::new(&scene);
-        let p = plan(
-            &scene,
-            &job.toolpath,
-            &m,
-            &backend,
-            &PlanOptions::default(),
-            &mut |_| {},
-        )
-        .unwrap();
+        let opts = PlanOptions::default();
+        plan(&scene, &job.toolpath, &m, &backend, &opts, progress).unwrap()
+    }
+
+    /// Each stage records the backend calls made while it ran and the
+    /// time they took, within its own wall time; the stages that ask
+    /// nothing record none.
+    #[test]
+    fn stages_record_the_backend_calls_they_made() {
+        let p = default_plan(&mut |_| {});
         for s in &p.stages {
             let a = s.answering;
             assert_eq!(a.calls > 0, s.queries > 0, "{}: {a:?}", s.name);

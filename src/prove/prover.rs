@@ -1154,6 +1154,20 @@ mod tests {
         }
     }
 
+    /// One pose asked `n` times, query `k` with the `(margin, slope)`
+    /// that `level(k)` gives.
+    fn one_pose_asked(m: &Machine, n: usize, level: impl Fn(usize) -> (f32, f32)) -> Vec<Query> {
+        let pose = m.pose(&axes(m, [0.0, 0.0, 40.0], 10.0, 0.0));
+        (0..n)
+            .map(|k| Query {
+                pose,
+                cutoff: 1,
+                margin: level(k).0,
+                slope: level(k).1,
+            })
+            .collect()
+    }
+
     /// Queries reaching farther than the backend answers well (margin
     /// plus slope times the head's 36 mm) are asked of the backend beside
     /// it, the others of the backend; the verdicts come back in the order
@@ -1161,15 +1175,9 @@ mod tests {
     #[test]
     fn wide_queries_go_to_the_backend_beside_with_verdicts_in_order() {
         let m = Machine::default();
-        let pose = m.pose(&axes(&m, [0.0, 0.0, 40.0], 10.0, 0.0));
-        let queries: Vec<Query> = (0..200)
-            .map(|k| Query {
-                pose,
-                cutoff: 1,
-                margin: 0.01 * k as f32,
-                slope: if k % 3 == 0 { 0.01 } else { 0.0 },
-            })
-            .collect();
+        let queries = one_pose_asked(&m, 200, |k| {
+            (0.01 * k as f32, if k % 3 == 0 { 0.01 } else { 0.0 })
+        });
         let (narrow, beside, alone) = (
             Narrow(profile(0.5, -1.0)),
             profile(0.5, -1.0),
@@ -1217,15 +1225,7 @@ mod tests {
     #[test]
     fn the_backend_calls_are_counted_and_timed() {
         let m = Machine::default();
-        let pose = m.pose(&axes(&m, [0.0, 0.0, 40.0], 10.0, 0.0));
-        let queries: Vec<Query> = (0..30)
-            .map(|k| Query {
-                pose,
-                cutoff: 1,
-                margin: 0.1 * k as f32,
-                slope: 0.0,
-            })
-            .collect();
+        let queries = one_pose_asked(&m, 30, |k| (0.1 * k as f32, 0.0));
         let (narrow, beside) = (Narrow(profile(0.5, -1.0)), profile(0.5, -1.0));
         let p = Prover::new(&m, &narrow, 36.0, 0.05, 0.3).with_wide(&beside);
         assert_eq!(p.answering(), Answering::default());
