@@ -39,11 +39,7 @@ impl Reporter {
         if !self.verbose {
             return;
         }
-        let line = match queries {
-            Some(q) => format!("stage {name:<14} {seconds:>8.3} s {q:>12} collision queries"),
-            None => format!("stage {name:<14} {seconds:>8.3} s"),
-        };
-        self.note(&line);
+        self.note(&stage_text(name, seconds, queries));
     }
 
     /// A planner's stage under `-v`: the [`Reporter::stage_line`], then
@@ -54,10 +50,7 @@ impl Reporter {
             return;
         }
         let a = s.answering;
-        let mut line = format!(
-            "stage {:<14} {:>8.3} s {:>12} collision queries",
-            s.name, s.seconds, s.queries
-        );
+        let mut line = stage_text(&s.name, s.seconds, Some(s.queries));
         if a.calls > 0 {
             line += &format!(" in {} calls, {:.3} s answering", a.calls, a.seconds);
         }
@@ -109,6 +102,14 @@ impl Reporter {
     /// Clear the bar.
     pub fn finish(&self) {
         self.bar.finish_and_clear();
+    }
+}
+
+/// A stage's `-v` line: its name, seconds and collision queries, if any.
+fn stage_text(name: &str, seconds: f64, queries: Option<u64>) -> String {
+    match queries {
+        Some(q) => format!("stage {name:<14} {seconds:>8.3} s {q:>12} collision queries"),
+        None => format!("stage {name:<14} {seconds:>8.3} s"),
     }
 }
 

@@ -161,6 +161,16 @@ impl std::ops::Sub for Answering {
     }
 }
 
+/// Run `call`, adding `count.1` to the counter `count.0` and the
+/// nanoseconds it took to `ns`.
+fn timed_into<T>(count: (&AtomicU64, u64), ns: &AtomicU64, call: impl FnOnce() -> T) -> T {
+    let asked = Instant::now();
+    let out = call();
+    count.0.fetch_add(count.1, Ordering::Relaxed);
+    ns.fetch_add(asked.elapsed().as_nanos() as u64, Ordering::Relaxed);
+    out
+}
+
 /// Where a [`Prover`] reports the progress of its batches.
 pub type Ticker<'a> = &'a (dyn Fn(u64, u64) + Sync);
 
@@ -304,12 +314,8 @@ impl<'a> Prover<'a> {
         let (near, far) = rayon::join(
             || self.backend.evaluate(&near),
             || {
-                let asked = Instant::now();
-                let out = beside.evaluate(&far);
-                let ns = asked.elapsed().as_nanos() as u64;
-                self.beside.fetch_add(far.len() as u64, Ordering::Relaxed);
-                self.beside_ns.fetch_add(ns, Ordering::Relaxed);
-                out
+                let counted = (&self.beside, far.len() as u64);
+                timed_into(counted, &self.beside_ns, || beside.evaluate(&far))
             },
         );
         let (mut near, mut far) = (near?.into_iter(), far?.into_iter());
@@ -509,12 +515,7 @@ impl<'a> Prover<'a> {
 
     /// `call` to the backend, counted and timed ([`Prover::answering`]).
     fn timed<T>(&self, call: impl FnOnce() -> T) -> T {
-        let asked = Instant::now();
-        let out = call();
-        let ns = asked.elapsed().as_nanos() as u64;
-        self.calls.fetch_add(1, Ordering::Relaxed);
-        self.answering_ns.fetch_add(ns, Ordering::Relaxed);
-        out
+        timed_into((&self.calls, 1), &self.answering_ns, call)
     }
 
     /// Does each move come within the margin of existing material at any

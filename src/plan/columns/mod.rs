@@ -141,6 +141,15 @@ impl Feasible {
     }
 }
 
+impl Feasible {
+    /// Each configuration after the first, at `cutoff`, with the first:
+    /// the same head geometry turned by the head's half-turn symmetry
+    /// ([`Prover::same_as_each`]).
+    fn mirrors(&self, cutoff: u32) -> impl Iterator<Item = (Axes, u32, Axes)> + '_ {
+        self.iter().skip(1).map(move |a| (*a, cutoff, self[0]))
+    }
+}
+
 impl std::ops::Deref for Feasible {
     type Target = [Axes];
     fn deref(&self) -> &[Axes] {
@@ -291,7 +300,7 @@ impl<'a> Columns<'a> {
             let mirrors: Vec<(Axes, u32, Axes)> = owner
                 .iter()
                 .zip(&queries)
-                .flat_map(|(&k, q)| cand[k][1..].iter().map(|a| (*a, q.1, q.0)))
+                .flat_map(|(&k, q)| cand[k].mirrors(q.1))
                 .collect();
             prover.same_as_each(&mirrors);
         }
@@ -467,7 +476,9 @@ impl<'a> Columns<'a> {
                     let each = pair.map(|tc| self.setup.feasible(g, tc));
                     let bit = |sol: usize| 1u128 << (2 * i + sol);
                     if symmetric && each.iter().any(Option::is_some) {
-                        let bits = (0..2).filter(|&s| each[s].is_some()).map(bit).sum();
+                        let bits = (0..2)
+                            .filter(|&s| each[s].is_some())
+                            .fold(0, |m, s| m | bit(s));
                         items.push((g, bits, Feasible::of(each)));
                     } else {
                         for (sol, a) in each.into_iter().enumerate() {
@@ -487,7 +498,7 @@ impl<'a> Columns<'a> {
         }
         let mirrors: Vec<(Axes, u32, Axes)> = items
             .iter()
-            .flat_map(|(g, _, configs)| configs[1..].iter().map(|a| (*a, cutoff(*g), configs[0])))
+            .flat_map(|(g, _, configs)| configs.mirrors(cutoff(*g)))
             .collect();
         prover.same_as_each(&mirrors);
         for ((g, bits, _), &hit) in items.iter().zip(&hits) {
