@@ -25,6 +25,7 @@
 use super::gcode_words::{line_words, LineWords};
 use super::InputError;
 use crate::kinematics::{linear_axes, tip_position, Axes, DwellUnit, Machine};
+use rayon::prelude::*;
 use std::path::Path;
 
 /// A line the reader cannot take.
@@ -193,26 +194,55 @@ pub fn read_program(text: &str, m: &Machine) -> Result<Vec<GcodeMove>, GcodeErro
 /// offsets and kinematics from `m`; tool-centre-point control and modes
 /// as the program switches them): every line that moves an axis or the
 /// extruder, or dwells, and the layer-change comments.
+///
+/// The lines' words are read on every core, a block of
+/// [`WORDS_BLOCK`] lines at a time (each line alone); the controller then
+/// follows them in order. The first line in error is the one reported.
 pub fn parse_program(text: &str, m: &Machine) -> Result<Program, GcodeError> {
     let mut controller = Controller::new(m);
     let mut out = Program::default();
-    for (n, raw) in text.lines().enumerate() {
-        let line = n + 1;
-        let words = line_words(raw).map_err(|msg| GcodeError { line, msg })?;
-        if words.layer_change {
-            out.layer_marks.push(line);
-        }
-        if words.is_empty() {
-            continue;
-        }
-        if let Some(mv) = controller
-            .read_line(line, raw, &words)
-            .map_err(|msg| GcodeError { line, msg })?
-        {
-            out.moves.push(mv);
+    let mut lines = text.lines().peekable();
+    let mut n = 0;
+    while lines.peek().is_some() {
+        let block: Vec<&str> = lines.by_ref().take(WORDS_BLOCK).collect();
+        let words: Vec<Result<LineWords, String>> =
+            block.par_iter().map(|raw| line_words(raw)).collect();
+        for (raw, words) in block.into_iter().zip(words) {
+            n += 1;
+            follow_line(&mut controller, &mut out, n, raw, words)?;
         }
     }
     Ok(out)
+}
+
+/// Lines whose words are read at once ([`parse_program`]): enough to
+/// share among the cores, few enough that their words take little
+/// memory beside the program's.
+const WORDS_BLOCK: usize = 16 * 1024;
+
+/// Line `line` (`raw`, its words read) followed by `controller`: its
+/// layer mark and the move it makes go to `out`.
+fn follow_line(
+    controller: &mut Controller<'_>,
+    out: &mut Program,
+    line: usize,
+    raw: &str,
+    words: Result<LineWords, String>,
+) -> Result<(), GcodeError> {
+    let words = words.map_err(|msg| GcodeError { line, msg })?;
+    if words.layer_change {
+        out.layer_marks.push(line);
+    }
+    if words.is_empty() {
+        return Ok(());
+    }
+    if let Some(mv) = controller
+        .read_line(line, raw, &words)
+        .map_err(|msg| GcodeError { line, msg })?
+    {
+        out.moves.push(mv);
+    }
+    Ok(())
 }
 
 /// A line's words by slot: X Y Z tilt C E F.
@@ -627,4 +657,47 @@ pub fn rotary_motion(moves: &[GcodeMove]) -> (f64, f64) {
         }
     }
     (total, max_step)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A program `n` lines long: the axes set, then one printing move a
+    /// line, a layer comment every 10,000 lines.
+    fn long_program(n: usize) -> Vec<String> {
+        let mut lines = vec!["G90".to_string(), "G28 X0 Y0 Z50 B0 C0".to_string()];
+        while lines.len() < n {
+            let k = lines.len() + 1;
+            lines.push(if k % 10_000 == 0 {
+                format!(";LAYER:{k}")
+            } else {
+                format!("G1 X{} Y0 Z1 E{} F1500", k % 100, k)
+            });
+        }
+        lines
+    }
+
+    /// Lines read a block at a time on every core keep their numbers
+    /// across the blocks: the layer marks and the moves are those of the
+    /// lines read one by one, and an error deep in a later block names
+    /// its own line, not another block's.
+    #[test]
+    fn programs_longer_than_a_block_keep_their_line_numbers() {
+        let m = Machine::default();
+        let lines = long_program(3 * WORDS_BLOCK + 1_234);
+        let p = parse_program(&lines.join("\n"), &m).unwrap();
+        let marks: Vec<usize> = (1..=lines.len()).filter(|k| k % 10_000 == 0).collect();
+        assert_eq!(p.layer_marks, marks);
+        // Every G1 line moves (homing only sets the axes).
+        assert_eq!(p.moves.len(), lines.len() - 2 - marks.len());
+        let last = p.moves.last().unwrap();
+        assert_eq!(last.to[0], ((lines.len()) % 100) as f64);
+        for bad in [WORDS_BLOCK, WORDS_BLOCK + 1, 2 * WORDS_BLOCK + 777] {
+            let mut broken = lines.clone();
+            broken[bad - 1] = "G1 X1 Q5".into();
+            let err = parse_program(&broken.join("\n"), &m).unwrap_err();
+            assert_eq!(err.line, bad, "{}", err.msg);
+        }
+    }
 }

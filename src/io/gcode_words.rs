@@ -6,6 +6,8 @@
 //! comment marks a layer change (`;LAYER:3`, `;LAYER_CHANGE`, `; layer 3`)
 //! is kept: it is the only word of a program on where its layers begin.
 
+use std::borrow::Cow;
+
 /// One line's words.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct LineWords {
@@ -43,43 +45,33 @@ pub fn is_layer_change(comment: &str) -> bool {
 }
 
 /// The words of line `raw`; an error names the piece that is not a
-/// letter followed by a finite number.
+/// letter followed by a finite number. A line without comments is read
+/// in place: a program's motion lines cost no allocation but their
+/// words'.
 pub fn line_words(raw: &str) -> Result<LineWords, String> {
-    let mut text = String::with_capacity(raw.len());
-    let mut comment = String::new();
     let mut out = LineWords::default();
-    let mut depth = 0;
-    for (i, ch) in raw.char_indices() {
-        match ch {
-            ';' if depth == 0 => {
-                out.layer_change |= is_layer_change(&raw[i + 1..]);
-                break;
-            }
-            '(' => {
-                depth += 1;
-                comment.clear();
-            }
-            ')' if depth > 0 => {
-                depth -= 1;
-                out.layer_change |= depth == 0 && is_layer_change(&comment);
-            }
-            _ if depth == 0 => text.push(ch),
-            _ => comment.push(ch),
-        }
-    }
-    let trimmed = text.trim().to_ascii_uppercase();
+    let text: Cow<str> = if raw.contains([';', '(']) {
+        Cow::Owned(outside_comments(raw, &mut out.layer_change))
+    } else {
+        Cow::Borrowed(raw)
+    };
+    let trimmed = text.trim();
     // `%` marks the start and end of a program on tape-era controllers.
     if trimmed == "%" {
         return Ok(out);
     }
-    if trimmed == "TRAORI" || trimmed == "TRAFOOF" {
-        out.codes.push(trimmed);
+    if let Some(code) = ["TRAORI", "TRAFOOF"]
+        .into_iter()
+        .find(|c| trimmed.eq_ignore_ascii_case(c))
+    {
+        out.codes.push(code.to_string());
         return Ok(out);
     }
     let mut first = true;
     for token in text.split_whitespace() {
         let bad = || format!("'{token}' is not a letter and a finite number");
-        for (letter, num) in split_words(token).ok_or_else(bad)? {
+        for word in split_words(token) {
+            let (letter, num) = word.ok_or_else(bad)?;
             let x: f64 = num
                 .parse()
                 .ok()
@@ -96,28 +88,57 @@ pub fn line_words(raw: &str) -> Result<LineWords, String> {
     Ok(out)
 }
 
-/// A whitespace-separated token as words: `X1.5`, or run together as many
-/// controllers accept them (`G1X1.5Y2`). `None` when a piece is not a
-/// letter followed by a number.
-fn split_words(token: &str) -> Option<Vec<(char, &str)>> {
-    let starts: Vec<usize> = token
-        .char_indices()
-        .filter(|(_, c)| c.is_ascii_alphabetic())
-        .map(|(i, _)| i)
-        .collect();
-    if starts.first() != Some(&0) {
-        return None;
+/// The text of line `raw` outside its `;` and `( )` comments; a comment
+/// that marks a layer change sets `layer_change`.
+fn outside_comments(raw: &str, layer_change: &mut bool) -> String {
+    let mut text = String::with_capacity(raw.len());
+    let mut comment = String::new();
+    let mut depth = 0;
+    for (i, ch) in raw.char_indices() {
+        match ch {
+            ';' if depth == 0 => {
+                *layer_change |= is_layer_change(&raw[i + 1..]);
+                break;
+            }
+            '(' => {
+                depth += 1;
+                comment.clear();
+            }
+            ')' if depth > 0 => {
+                depth -= 1;
+                *layer_change |= depth == 0 && is_layer_change(&comment);
+            }
+            _ if depth == 0 => text.push(ch),
+            _ => comment.push(ch),
+        }
     }
-    let mut out = Vec::with_capacity(starts.len());
-    for (k, &i) in starts.iter().enumerate() {
-        let end = starts.get(k + 1).copied().unwrap_or(token.len());
-        let num = &token[i + 1..end];
-        if num.is_empty() {
+    text
+}
+
+/// A whitespace-separated token's words: `X1.5`, or run together as many
+/// controllers accept them (`G1X1.5Y2`), each an upper-cased letter and
+/// the number after it. `None` for a piece that is not a letter followed
+/// by a number (the token is then not words at all).
+fn split_words(token: &str) -> impl Iterator<Item = Option<(char, &str)>> + '_ {
+    let b = token.as_bytes();
+    let mut i = 0;
+    std::iter::from_fn(move || {
+        if i >= b.len() {
             return None;
         }
-        out.push((token.as_bytes()[i].to_ascii_uppercase() as char, num));
-    }
-    Some(out)
+        if !b[i].is_ascii_alphabetic() {
+            i = b.len();
+            return Some(None);
+        }
+        // A letter is one byte, never inside a longer character: the
+        // slices fall on character boundaries.
+        let end = (i + 1..b.len())
+            .find(|&k| b[k].is_ascii_alphabetic())
+            .unwrap_or(b.len());
+        let word = (end > i + 1).then(|| (b[i].to_ascii_uppercase() as char, &token[i + 1..end]));
+        i = end;
+        Some(word)
+    })
 }
 
 #[cfg(test)]
