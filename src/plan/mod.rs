@@ -33,6 +33,7 @@ mod columns;
 pub mod cost;
 pub mod extrusion;
 mod graph;
+mod idle;
 pub mod layer_reading;
 pub(crate) mod memory;
 pub mod metrics;
@@ -374,15 +375,15 @@ pub fn plan_prepared(
         .with_wide(&cpu);
     // The input's own metrics need nothing the planner finds: they are
     // measured beside it, with a prover of their own (its answers and
-    // counts do not depend on how the two interleave), and fill the
-    // cores the planner's serial steps leave idle.
+    // counts do not depend on how the two interleave), on threads that
+    // take only the cores the planner leaves idle ([`idle`]).
     let input_prover = Prover::new(machine, backend, reach, margin, opts.edge_step).with_wide(&cpu);
     let mut clock = StageClock::new(&tell);
     for stage in std::mem::take(&mut prepared.stages) {
         clock.record(stage);
     }
     let setup = Setup::new(scene, &prepared, machine, opts);
-    let (planned, measured) = rayon::join(
+    let (planned, measured) = idle::beside_idle(
         || run_stages(&setup, &prover, &mut clock),
         || {
             let started = Instant::now();
