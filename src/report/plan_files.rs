@@ -12,7 +12,7 @@ use crate::plan::Plan;
 use crate::report::html::{report_html, ReportContext};
 use crate::report::plots::figure_files;
 use crate::report::scene_glb::scene_glb;
-use crate::report::watch::watched;
+use crate::report::watch::{read_back, watched};
 use std::path::Path;
 use std::time::Instant;
 
@@ -77,8 +77,8 @@ struct ReportFiles {
 }
 
 impl Rendered {
-    /// Render the outputs of plan `p`; the program and the report are
-    /// independent and rendered side by side, as are the figures and the
+    /// Render the outputs of plan `p`: the program, written and read back
+    /// ([`read_back`]), side by side with the CSV, the figures and the
     /// scene; the program is then watched ([`watched`]). `report_margin`:
     /// the margin the report's pictures check at, `None` for no report.
     pub fn new(
@@ -96,38 +96,47 @@ impl Rendered {
             source: job.source.clone(),
             command: context.command.to_string(),
         };
-        let (program, drawn) = rayon::join(
+        // The program is read back as soon as it is written, beside the
+        // CSV, the figures and the scene, which fill the cores the read
+        // back's serial steps leave idle.
+        let started = Instant::now();
+        let ((gcode, gcode_s, back), (csv, drawn)) = rayon::join(
             || {
-                let t = Instant::now();
-                let (gcode, csv) = rayon::join(
-                    || write_gcode(machine, &p.program, &header),
-                    || write_plan_csv(machine, &p.waypoints),
-                );
-                (gcode, csv, t.elapsed().as_secs_f64())
+                let gcode = write_gcode(machine, &p.program, &header);
+                let gcode_s = started.elapsed().as_secs_f64();
+                let back = report_margin.map(|margin| read_back(machine, job, &gcode, margin));
+                (gcode, gcode_s, back)
             },
             || {
-                report_margin.map(|margin| {
-                    let t = Instant::now();
-                    let (figures, glb) = rayon::join(
-                        || figure_files(machine, p),
-                        || scene_glb(&job.scene, p, machine),
-                    );
-                    (figures, glb, margin, t)
-                })
+                rayon::join(
+                    || {
+                        let csv = write_plan_csv(machine, &p.waypoints);
+                        (csv, started.elapsed().as_secs_f64())
+                    },
+                    || {
+                        report_margin.map(|_| {
+                            rayon::join(
+                                || figure_files(machine, p),
+                                || scene_glb(&job.scene, p, machine),
+                            )
+                        })
+                    },
+                )
             },
         );
-        let (gcode, csv, write_s) = program;
+        let (csv, csv_s) = csv;
+        let write_s = gcode_s.max(csv_s);
         show.stage_line("write", write_s, None);
         let mut stages = vec![("write".to_string(), write_s)];
-        let report = match drawn {
-            None => None,
-            Some((figures, glb, margin, t)) => {
+        let report = match (drawn, back) {
+            (Some((figures, glb)), Some(back)) => {
                 show.begin("report");
+                let back = back?;
                 let (figures, plots) = figures.map_err(PlotError)?;
-                let (program_glb, html) = watched(machine, job, &gcode, margin, show, |seen| {
+                let (program_glb, html) = watched(machine, job, &back, show, |seen| {
                     report_html(context, machine, p, &figures, seconds, Some(seen))
                 })?;
-                let report_s = t.elapsed().as_secs_f64();
+                let report_s = started.elapsed().as_secs_f64();
                 show.stage_line("report", report_s, None);
                 stages.push(("report".to_string(), report_s));
                 Some(ReportFiles {
@@ -137,6 +146,7 @@ impl Rendered {
                     plots,
                 })
             }
+            _ => None,
         };
         Ok(Rendered {
             gcode,

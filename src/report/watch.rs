@@ -8,9 +8,10 @@ use super::plan_files::{RenderError, StageSink};
 use super::playback::Playback;
 use super::program_glb::{program_glb, ProgramScene};
 use super::snapshot::{pictures, Pictures};
+use crate::io::gcode_read::GcodeMove;
 use crate::job::LoadedJob;
 use crate::kinematics::Machine;
-use crate::simulate::replay;
+use crate::simulate::{replay, Simulation, Timeline};
 use std::time::Instant;
 
 /// `program.glb` and the pictures of `program`, made side by side (the
@@ -48,20 +49,44 @@ pub fn seen_side_by_side(
     (glb, pictures)
 }
 
-/// A plan's written program `gcode` read back and watched: `program.glb`,
-/// and the page `page` makes with the problems' times and pictures.
-pub fn watched(
+/// A plan's written program read back as `simulate` reads it: its moves,
+/// when material appears, and its problems at `margin`.
+pub struct ReadBack {
+    moves: Vec<GcodeMove>,
+    timeline: Timeline,
+    sim: Simulation,
+    margin: f64,
+}
+
+/// Read back the written program `gcode` of a plan of `job` for `machine`,
+/// its problems checked at `margin` ([`replay`]).
+pub fn read_back(
     machine: &Machine,
     job: &LoadedJob,
     gcode: &str,
     margin: f64,
+) -> Result<ReadBack, RenderError> {
+    let (moves, timeline, sim) =
+        replay(machine, &job.toolpath, gcode, margin).map_err(RenderError::ReadBack)?;
+    Ok(ReadBack {
+        moves,
+        timeline,
+        sim,
+        margin,
+    })
+}
+
+/// A plan's program, read back (`back`), watched: `program.glb`, and the
+/// page `page` makes with the problems' times and pictures.
+pub fn watched(
+    machine: &Machine,
+    job: &LoadedJob,
+    back: &ReadBack,
     show: &dyn StageSink,
     page: impl FnOnce(&Seen) -> String,
 ) -> Result<(Vec<u8>, String), RenderError> {
-    let (moves, timeline, sim) =
-        replay(machine, &job.toolpath, gcode, margin).map_err(RenderError::ReadBack)?;
-    let playback = Playback::new(&moves, &sim, &timeline);
-    let stamp = |s: u32| if s == 0 { 0 } else { timeline.stamp(s) };
+    let playback = Playback::new(&back.moves, &back.sim, &back.timeline);
+    let stamp = |s: u32| if s == 0 { 0 } else { back.timeline.stamp(s) };
     let program = ProgramScene {
         machine,
         scene: &job.scene,
@@ -69,7 +94,7 @@ pub fn watched(
         stamp: &stamp,
         bodies: &machine_bodies(machine).map_err(RenderError::Bodies)?,
     };
-    let (glb, pictures) = seen_side_by_side(&program, margin, show);
+    let (glb, pictures) = seen_side_by_side(&program, back.margin, show);
     let html = page(&Seen {
         playback: &playback,
         pictures: &pictures,
