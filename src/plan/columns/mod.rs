@@ -139,9 +139,7 @@ impl Feasible {
         }
         f
     }
-}
 
-impl Feasible {
     /// Each configuration after the first, at `cutoff`, with the first:
     /// the same head geometry turned by the head's half-turn symmetry
     /// ([`Prover::same_as_each`]).
