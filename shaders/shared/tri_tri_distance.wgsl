@@ -153,5 +153,35 @@ fn tri_tri_closer_than(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q
     if plane_separates(n2, -dot3(n2, p), m2 * dot3(n2, n2), a, b, c) {
         return false;
     }
+    if edge_axes_separate(a, b, c, p, q, r, m2) {
+        return false;
+    }
     return tri_tri_distance_sq(a, b, c, p, q, r) < m2;
+}
+
+fn edge_axes_separate(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q: vec3<f32>, r: vec3<f32>, m2: f32) -> bool {
+    let first = array<vec3<f32>, 3>(a, b, c);
+    let second = array<vec3<f32>, 3>(p, q, r);
+    for (var i = 0u; i < 3u; i++) {
+        let u0 = first[i];
+        let u1 = first[(i + 1u) % 3u];
+        let u2 = first[(i + 2u) % 3u];
+        let e = u1 - u0;
+        for (var j = 0u; j < 3u; j++) {
+            let w0 = second[j];
+            let w1 = second[(j + 1u) % 3u];
+            let w2 = second[(j + 2u) % 3u];
+            let l = cross3(e, w1 - w0);
+            let ll = dot3(l, l);
+            let x = dot3(l, u2 - u0);
+            let y0 = dot3(l, w0 - u0);
+            let y1 = dot3(l, w2 - u0);
+            var gap = min(y0, y1) - max(x, 0.0);
+            gap = max(gap, min(x, 0.0) - max(y0, y1));
+            if ll > 1e-12 && gap > 0.0 && gap * gap >= m2 * ll {
+                return true;
+            }
+        }
+    }
+    return false;
 }
