@@ -339,6 +339,14 @@ mod tests {
         std::array::from_fn(|_| std::array::from_fn(|k| centre[k] + r.random_range(-size..size)))
     }
 
+    /// A unit-size triangle at the origin and one up to 2.5 along x: from
+    /// crossing to well apart.
+    fn side_by_side(r: &mut ChaCha8Rng) -> (T, T) {
+        let s = random_tri(r, [0.0; 3], 1.0);
+        let c = r.random_range(0.0..2.5f32);
+        (s, random_tri(r, [c, 0.0, 0.0], 1.0))
+    }
+
     #[test]
     fn random_pairs_match_dense_sampling() {
         let mut r = ChaCha8Rng::seed_from_u64(11);
@@ -452,9 +460,7 @@ mod tests {
         let mut r = ChaCha8Rng::seed_from_u64(3);
         let mut separated = 0;
         for _ in 0..3000 {
-            let s = random_tri(&mut r, [0.0; 3], 1.0);
-            let c = r.random_range(0.0..2.5f32);
-            let t = random_tri(&mut r, [c, 0.0, 0.0], 1.0);
+            let (s, t) = side_by_side(&mut r);
             let d = dist(&s, &t);
             let m = r.random_range(0.01..1.0f32);
             let n = cross(sub(t[1], t[0]), sub(t[2], t[0]));
@@ -478,9 +484,7 @@ mod tests {
         let mut r = ChaCha8Rng::seed_from_u64(5);
         let (mut past_planes, mut parted) = (0, 0);
         for _ in 0..4000 {
-            let s = random_tri(&mut r, [0.0; 3], 1.0);
-            let c = r.random_range(0.0..2.5f32);
-            let t = random_tri(&mut r, [c, 0.0, 0.0], 1.0);
+            let (s, t) = side_by_side(&mut r);
             let d = dist(&s, &t);
             let m = r.random_range(0.01..0.5f32);
             let m2 = m * m;
