@@ -173,12 +173,15 @@ fn edge_axes_separate(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>, q:
             let w2 = second[(j + 2u) % 3u];
             let l = cross3(e, w1 - w0);
             let ll = dot3(l, l);
+            if ll <= 1e-12 {
+                continue;
+            }
             let x = dot3(l, u2 - u0);
             let y0 = dot3(l, w0 - u0);
             let y1 = dot3(l, w2 - u0);
             var gap = min(y0, y1) - max(x, 0.0);
             gap = max(gap, min(x, 0.0) - max(y0, y1));
-            if ll > 1e-12 && gap > 0.0 && gap * gap >= m2 * ll {
+            if gap > 0.0 && gap * gap >= m2 * ll {
                 return true;
             }
         }

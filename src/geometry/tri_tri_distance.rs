@@ -105,6 +105,10 @@ pub fn edge_axes_separate(a: V3, b: V3, c: V3, p: V3, q: V3, r: V3, m2: f32) -> 
             let (w0, w1, w2) = (second[j], second[(j + 1) % 3], second[(j + 2) % 3]);
             let l = cross(e, sub(w1, w0));
             let ll = dot(l, l);
+            // Parallel edges span no axis.
+            if ll <= 1e-12 {
+                continue;
+            }
             // The first triangle's interval is 0 and x, the second's y0
             // and y1 (all from u0).
             let x = dot(l, sub(u2, u0));
@@ -112,7 +116,7 @@ pub fn edge_axes_separate(a: V3, b: V3, c: V3, p: V3, q: V3, r: V3, m2: f32) -> 
             let y1 = dot(l, sub(w2, u0));
             let gap = y0.min(y1) - x.max(0.0);
             let gap = gap.max(x.min(0.0) - y0.max(y1));
-            if ll > 1e-12 && gap > 0.0 && gap * gap >= m2 * ll {
+            if gap > 0.0 && gap * gap >= m2 * ll {
                 return true;
             }
         }
@@ -477,6 +481,15 @@ mod tests {
         assert!(separated > 300, "{separated} pairs separated by a plane");
     }
 
+    /// Does either triangle's plane part `s` and `t` by `√m2`?
+    fn planes_part(s: &T, t: &T, m2: f32) -> bool {
+        let beyond = |u: &T, v: &T| {
+            let n = cross(sub(u[1], u[0]), sub(u[2], u[0]));
+            plane_separates(n, -dot(n, u[0]), m2 * dot(n, n), v[0], v[1], v[2])
+        };
+        beyond(s, t) || beyond(t, s)
+    }
+
     /// The edge axes never part a pair within the margin, and they part
     /// most pairs beside each other that neither plane does.
     #[test]
@@ -493,11 +506,7 @@ mod tests {
             if edge_axes_separate(a, b, cc, p, q, rr, m2) {
                 assert!(d >= m * (1.0 - 1e-4), "{d} vs margin {m}: {s:?} {t:?}");
             }
-            let n1 = cross(sub(b, a), sub(cc, a));
-            let n2 = cross(sub(q, p), sub(rr, p));
-            let planes = plane_separates(n1, -dot(n1, a), m2 * dot(n1, n1), p, q, rr)
-                || plane_separates(n2, -dot(n2, p), m2 * dot(n2, n2), a, b, cc);
-            if !planes && d > 1.5 * m {
+            if !planes_part(&s, &t, m2) && d > 1.5 * m {
                 past_planes += 1;
                 parted += edge_axes_separate(a, b, cc, p, q, rr, m2) as u32;
             }
@@ -519,24 +528,7 @@ mod tests {
         let t: T = [[0.0, -1.0, 1.0], [0.0, 1.0, 1.0], [0.5, 0.0, 3.0]];
         let [a, b, c] = s;
         let [p, q, r] = t;
-        let n1 = cross(sub(b, a), sub(c, a));
-        let n2 = cross(sub(q, p), sub(r, p));
-        assert!(!plane_separates(
-            n1,
-            -dot(n1, a),
-            0.25 * dot(n1, n1),
-            p,
-            q,
-            r
-        ));
-        assert!(!plane_separates(
-            n2,
-            -dot(n2, p),
-            0.25 * dot(n2, n2),
-            a,
-            b,
-            c
-        ));
+        assert!(!planes_part(&s, &t, 0.25));
         assert!((dist(&s, &t) - 1.0).abs() < 1e-3, "{}", dist(&s, &t));
         assert!(edge_axes_separate(a, b, c, p, q, r, 0.9 * 0.9));
         assert!(!edge_axes_separate(a, b, c, p, q, r, 1.1 * 1.1));

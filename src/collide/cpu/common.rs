@@ -360,8 +360,9 @@ pub fn clears_centre(c: V3, origin: V3, cell: f32, [ix, iy, iz]: [u32; 3], slack
 /// products are shared: farther than the margin on one side settles most
 /// pairs), the two triangles' boxes grown by the same
 /// amount, and [`tri_tri_closer_than`] (the other plane, the edge axes,
-/// then the exact distance). Crossing and nearness share the walk because a second walk
-/// per undecided triangle cost more than the distance tests themselves.
+/// then the exact distance). Crossing and nearness share the walk because
+/// a second walk per undecided triangle cost more than the distance tests
+/// themselves.
 ///
 /// Twin: `tri_crosses_head` (`collide_common.wgsl`).
 #[inline(always)]
