@@ -28,6 +28,7 @@ use crate::kinematics::{
 };
 use crate::scene::Scene;
 use crate::simulate::ProblemKind;
+use rayon::prelude::*;
 use serde_json::json;
 
 /// Most part chunks (nodes that appear as the part is printed).
@@ -268,8 +269,7 @@ fn bodies(b: &mut Builder, rig: &Rig, bodies: &[(BodyMotion, Mesh)]) {
             // Validated away: such bodies belong to a rotary table.
             _ => rig.root,
         };
-        let all: Vec<usize> = (0..mesh.triangles.len()).collect();
-        let m = mesh_node(b, mesh, &all, 1.0, mat);
+        let m = whole_mesh(b, mesh, mat);
         let n = b.node(json!({"name": format!("machine body {k} ({motion:?})"), "mesh": m}));
         b.child(parent, n);
     }
@@ -345,6 +345,8 @@ fn continuous(mut q: Vec<[f32; 4]>) -> Vec<[f32; 4]> {
 }
 
 /// The platform, and the part in chunks that appear as they are printed.
+/// The chunks are simplified on every core ([`shown_mesh`]), then added
+/// in order: the same file as one by one.
 fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
     let platform_mat = b.material("platform", [0.55, 0.55, 0.60, 1.0], false);
     let layer_mats = [
@@ -354,55 +356,110 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
     let total: usize = s.scene.groups.iter().map(|g| g.mesh.triangles.len()).sum();
     let chunk_size = (total / MAX_CHUNKS + 1).max(MIN_CHUNK_TRIANGLES);
     let keep = (MAX_PART_TRIANGLES as f64 / total.max(1) as f64).min(1.0);
+    let chunks = part_chunks(s, chunk_size);
+    let meshes: Vec<(Vec<V3>, Vec<[u32; 3]>)> = chunks
+        .par_iter()
+        .map(|c| match c.layer {
+            None => shown_mesh(&c.mesh.vertices, &c.mesh.triangles, 1.0),
+            Some(_) => {
+                let tris: Vec<[u32; 3]> = c.tris.iter().map(|&t| c.mesh.triangles[t]).collect();
+                shown_mesh(&c.mesh.vertices, &tris, keep)
+            }
+        })
+        .collect();
     let p = s.playback;
-    for g in &s.scene.groups {
-        let Some(layer) = g.layer else {
-            let mesh = mesh_node(
-                b,
-                &g.mesh,
-                &(0..g.mesh.triangles.len()).collect::<Vec<_>>(),
-                1.0,
-                platform_mat,
-            );
+    for (c, (vertices, triangles)) in chunks.iter().zip(meshes) {
+        let Some(layer) = c.layer else {
+            let mesh = add_mesh(b, &vertices, &triangles, platform_mat);
             let n = b.node(json!({"name": "platform", "mesh": mesh}));
             b.child(parent, n);
             continue;
         };
-        // Triangles by the move after which they exist; never printed: out.
+        let mesh = add_mesh(b, &vertices, &triangles, layer_mats[layer % 2]);
+        let time = p.ends[c.after] as f32;
+        let n = b.node(json!({
+            "name": format!("layer {layer} part {}", c.k),
+            "mesh": mesh,
+            "scale": [0.0, 0.0, 0.0],
+            "extras": {"layer": layer, "appears_s": time, "after_line": p.moves[c.after].line},
+        }));
+        b.child(parent, n);
+        let times = b.times(&[0.0, time.max(f32::MIN_POSITIVE)]);
+        let scales = b.vec3_keys(&[[0.0; 3], [1.0; 3]]);
+        b.channel(n, "scale", times, scales, Interpolation::Step);
+    }
+}
+
+/// One node of the part: a platform whole, or a chunk of a layer's
+/// triangles that appear together.
+struct Chunk<'s> {
+    mesh: &'s Mesh,
+    /// The layer (`None`: the platform, all of its triangles).
+    layer: Option<usize>,
+    /// The chunk's number within its layer.
+    k: usize,
+    /// Its triangles (indices into `mesh`), in the order they appear.
+    tris: Vec<usize>,
+    /// The move after which the last of them exists.
+    after: usize,
+}
+
+/// The platforms, and each layer's printed triangles by the move after
+/// which they exist, cut into chunks of `chunk_size` (triangles never
+/// printed are left out).
+fn part_chunks<'s>(s: &ProgramScene<'s>, chunk_size: usize) -> Vec<Chunk<'s>> {
+    let p = s.playback;
+    let mut chunks = Vec::new();
+    for g in &s.scene.groups {
+        let Some(layer) = g.layer else {
+            chunks.push(Chunk {
+                mesh: &g.mesh,
+                layer: None,
+                k: 0,
+                tris: Vec::new(),
+                after: 0,
+            });
+            continue;
+        };
         let mut order: Vec<(usize, usize)> = (0..g.mesh.triangles.len())
             .filter_map(|t| p.appears_after((s.stamp)(g.stamps[t])).map(|i| (i, t)))
             .collect();
         order.sort_unstable();
         for (k, chunk) in order.chunks(chunk_size).enumerate() {
-            let tris: Vec<usize> = chunk.iter().map(|&(_, t)| t).collect();
-            let after = chunk.last().expect("a chunk is not empty").0;
-            let mesh = mesh_node(b, &g.mesh, &tris, keep, layer_mats[layer % 2]);
-            let time = p.ends[after] as f32;
-            let n = b.node(json!({
-                "name": format!("layer {layer} part {k}"),
-                "mesh": mesh,
-                "scale": [0.0, 0.0, 0.0],
-                "extras": {"layer": layer, "appears_s": time, "after_line": p.moves[after].line},
-            }));
-            b.child(parent, n);
-            let times = b.times(&[0.0, time.max(f32::MIN_POSITIVE)]);
-            let scales = b.vec3_keys(&[[0.0; 3], [1.0; 3]]);
-            b.channel(n, "scale", times, scales, Interpolation::Step);
+            chunks.push(Chunk {
+                mesh: &g.mesh,
+                layer: Some(layer),
+                k,
+                tris: chunk.iter().map(|&(_, t)| t).collect(),
+                after: chunk.last().expect("a chunk is not empty").0,
+            });
         }
+    }
+    chunks
+}
+
+/// The mesh of `triangles` over `vertices` as shown (vertices compacted),
+/// simplified to about `keep` of its triangles when `keep < 1`.
+fn shown_mesh(vertices: &[V3], triangles: &[[u32; 3]], keep: f64) -> (Vec<V3>, Vec<[u32; 3]>) {
+    let (vertices, triangles) = compact(vertices, triangles.iter().copied());
+    if keep < 1.0 && triangles.len() > 8 {
+        let simpler = simplified(&vertices, &triangles, keep);
+        compact(&vertices, simpler.into_iter())
+    } else {
+        (vertices, triangles)
     }
 }
 
-/// A mesh of triangles `tris` of `m` (vertices compacted), simplified to
-/// about `keep` of its triangles when `keep < 1`: its index.
-fn mesh_node(b: &mut Builder, m: &Mesh, tris: &[usize], keep: f64, material: usize) -> usize {
-    let (vertices, mut triangles) = compact(&m.vertices, tris.iter().map(|&t| m.triangles[t]));
-    let mut vertices = vertices;
-    if keep < 1.0 && triangles.len() > 8 {
-        let simpler = simplified(&vertices, &triangles, keep);
-        (vertices, triangles) = compact(&vertices, simpler.into_iter());
-    }
-    let pos = b.positions(&vertices);
-    let idx = b.triangles(&triangles);
+/// All of mesh `m` (vertices compacted) in `material`: its index.
+fn whole_mesh(b: &mut Builder, m: &Mesh, material: usize) -> usize {
+    let (vertices, triangles) = shown_mesh(&m.vertices, &m.triangles, 1.0);
+    add_mesh(b, &vertices, &triangles, material)
+}
+
+/// A mesh of `triangles` over `vertices` in `material`: its index.
+fn add_mesh(b: &mut Builder, vertices: &[V3], triangles: &[[u32; 3]], material: usize) -> usize {
+    let pos = b.positions(vertices);
+    let idx = b.triangles(triangles);
     b.mesh(
         "part",
         vec![json!({"attributes": {"POSITION": pos}, "indices": idx, "material": material})],
@@ -453,8 +510,7 @@ fn simplified(vertices: &[V3], triangles: &[[u32; 3]], keep: f64) -> Vec<[u32; 3
 /// The head's mesh on its node.
 fn head(b: &mut Builder, node: usize, scene: &Scene) {
     let mat = b.material("head", [0.30, 0.30, 0.35, 1.0], false);
-    let m = &scene.head.mesh;
-    let mesh = mesh_node(b, m, &(0..m.triangles.len()).collect::<Vec<_>>(), 1.0, mat);
+    let mesh = whole_mesh(b, &scene.head.mesh, mat);
     let n = b.node(json!({"name": "head mesh", "mesh": mesh}));
     b.child(node, n);
 }
@@ -568,7 +624,7 @@ fn markers(b: &mut Builder, parent: usize, s: &ProgramScene) {
             problem_color(kind),
             true,
         );
-        let mesh = mesh_node(b, &octahedron, &(0..8).collect::<Vec<_>>(), 1.0, mat);
+        let mesh = whole_mesh(b, &octahedron, mat);
         for q in of {
             let Some(i) = p.index_of_line(q.line) else {
                 continue;

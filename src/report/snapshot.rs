@@ -97,10 +97,20 @@ pub struct Pictures {
 /// when it fails), none and why.
 pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
     let drawn = Renderer::open().and_then(|r| {
-        let problems = problem_pictures(&r, s, margin)?;
+        let mut problems = problem_pictures(&r, s, margin)?;
         let (list, camera) = overview(s);
         let (w, h) = OVERVIEW_SIZE;
-        let overview = png(&r.draw(&list, &camera, w, h)?, w, h);
+        let overview = r.draw(&list, &camera, w, h)?;
+        // Drawn one after another, encoded on every core.
+        let (overview, ()) = rayon::join(
+            || png(&overview, w, h),
+            || {
+                problems
+                    .par_iter_mut()
+                    .for_each(|(p, rgba)| p.png = png(rgba, SIZE.0, SIZE.1))
+            },
+        );
+        let problems = problems.into_iter().map(|(p, _)| p).collect();
         Ok((r.adapter().to_string(), overview, problems))
     });
     match drawn {
@@ -117,8 +127,13 @@ pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
     }
 }
 
-/// The first problems of each kind, pictured.
-fn problem_pictures(r: &Renderer, s: &ProgramScene, margin: f32) -> Result<Vec<Picture>, String> {
+/// The first problems of each kind, pictured: each with its pixels
+/// (RGBA), its PNG not encoded yet.
+fn problem_pictures(
+    r: &Renderer,
+    s: &ProgramScene,
+    margin: f32,
+) -> Result<Vec<(Picture, Vec<u8>)>, String> {
     let p = s.playback;
     let part = bounds(
         s.scene
@@ -141,14 +156,15 @@ fn problem_pictures(r: &Renderer, s: &ProgramScene, margin: f32) -> Result<Vec<P
             };
             let (list, camera, highlighted) = problem_view(s, i, kind, margin, part_center);
             let rgba = r.draw(&list, &camera, SIZE.0, SIZE.1)?;
-            out.push(Picture {
+            let picture = Picture {
                 line: q.line,
                 kind,
                 value: q.value,
                 time_s: p.ends[i],
                 highlighted,
-                png: png(&rgba, SIZE.0, SIZE.1),
-            });
+                png: Vec::new(),
+            };
+            out.push((picture, rgba));
         }
     }
     Ok(out)
