@@ -345,8 +345,8 @@ fn continuous(mut q: Vec<[f32; 4]>) -> Vec<[f32; 4]> {
 }
 
 /// The platform, and the part in chunks that appear as they are printed.
-/// The chunks are simplified on every core ([`shown_mesh`]), then added
-/// in order: the same file as one by one.
+/// The nodes' meshes are made on every core ([`PartNode::shown`]), then
+/// added in order: the same file as one by one.
 fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
     let platform_mat = b.material("platform", [0.55, 0.55, 0.60, 1.0], false);
     let layer_mats = [
@@ -356,32 +356,26 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
     let total: usize = s.scene.groups.iter().map(|g| g.mesh.triangles.len()).sum();
     let chunk_size = (total / MAX_CHUNKS + 1).max(MIN_CHUNK_TRIANGLES);
     let keep = (MAX_PART_TRIANGLES as f64 / total.max(1) as f64).min(1.0);
-    let chunks = part_chunks(s, chunk_size);
-    let meshes: Vec<(Vec<V3>, Vec<[u32; 3]>)> = chunks
-        .par_iter()
-        .map(|c| match c.layer {
-            None => shown_mesh(&c.mesh.vertices, &c.mesh.triangles, 1.0),
-            Some(_) => {
-                let tris: Vec<[u32; 3]> = c.tris.iter().map(|&t| c.mesh.triangles[t]).collect();
-                shown_mesh(&c.mesh.vertices, &tris, keep)
-            }
-        })
-        .collect();
+    let nodes = part_nodes(s, chunk_size);
+    let meshes: Vec<(Vec<V3>, Vec<[u32; 3]>)> = nodes.par_iter().map(|n| n.shown(keep)).collect();
     let p = s.playback;
-    for (c, (vertices, triangles)) in chunks.iter().zip(meshes) {
-        let Some(layer) = c.layer else {
+    for (node, (vertices, triangles)) in nodes.iter().zip(meshes) {
+        let &PartNode::Chunk {
+            layer, k, after, ..
+        } = node
+        else {
             let mesh = add_mesh(b, &vertices, &triangles, platform_mat);
             let n = b.node(json!({"name": "platform", "mesh": mesh}));
             b.child(parent, n);
             continue;
         };
         let mesh = add_mesh(b, &vertices, &triangles, layer_mats[layer % 2]);
-        let time = p.ends[c.after] as f32;
+        let time = p.ends[after] as f32;
         let n = b.node(json!({
-            "name": format!("layer {layer} part {}", c.k),
+            "name": format!("layer {layer} part {k}"),
             "mesh": mesh,
             "scale": [0.0, 0.0, 0.0],
-            "extras": {"layer": layer, "appears_s": time, "after_line": p.moves[c.after].line},
+            "extras": {"layer": layer, "appears_s": time, "after_line": p.moves[after].line},
         }));
         b.child(parent, n);
         let times = b.times(&[0.0, time.max(f32::MIN_POSITIVE)]);
@@ -392,33 +386,43 @@ fn part(b: &mut Builder, parent: usize, s: &ProgramScene) {
 
 /// One node of the part: a platform whole, or a chunk of a layer's
 /// triangles that appear together.
-struct Chunk<'s> {
-    mesh: &'s Mesh,
-    /// The layer (`None`: the platform, all of its triangles).
-    layer: Option<usize>,
-    /// The chunk's number within its layer.
-    k: usize,
-    /// Its triangles (indices into `mesh`), in the order they appear.
-    tris: Vec<usize>,
-    /// The move after which the last of them exists.
-    after: usize,
+enum PartNode<'s> {
+    Platform(&'s Mesh),
+    Chunk {
+        mesh: &'s Mesh,
+        layer: usize,
+        /// The chunk's number within its layer.
+        k: usize,
+        /// Its triangles (indices into `mesh`), in the order they appear.
+        tris: Vec<usize>,
+        /// The move after which the last of them exists.
+        after: usize,
+    },
+}
+
+impl PartNode<'_> {
+    /// Its mesh as shown: a chunk simplified to about `keep` of its
+    /// triangles ([`shown_mesh`]).
+    fn shown(&self, keep: f64) -> (Vec<V3>, Vec<[u32; 3]>) {
+        match self {
+            PartNode::Platform(m) => shown_mesh(&m.vertices, &m.triangles, 1.0),
+            PartNode::Chunk { mesh, tris, .. } => {
+                let triangles: Vec<[u32; 3]> = tris.iter().map(|&t| mesh.triangles[t]).collect();
+                shown_mesh(&mesh.vertices, &triangles, keep)
+            }
+        }
+    }
 }
 
 /// The platforms, and each layer's printed triangles by the move after
 /// which they exist, cut into chunks of `chunk_size` (triangles never
 /// printed are left out).
-fn part_chunks<'s>(s: &ProgramScene<'s>, chunk_size: usize) -> Vec<Chunk<'s>> {
+fn part_nodes<'s>(s: &ProgramScene<'s>, chunk_size: usize) -> Vec<PartNode<'s>> {
     let p = s.playback;
-    let mut chunks = Vec::new();
+    let mut nodes = Vec::new();
     for g in &s.scene.groups {
         let Some(layer) = g.layer else {
-            chunks.push(Chunk {
-                mesh: &g.mesh,
-                layer: None,
-                k: 0,
-                tris: Vec::new(),
-                after: 0,
-            });
+            nodes.push(PartNode::Platform(&g.mesh));
             continue;
         };
         let mut order: Vec<(usize, usize)> = (0..g.mesh.triangles.len())
@@ -426,16 +430,16 @@ fn part_chunks<'s>(s: &ProgramScene<'s>, chunk_size: usize) -> Vec<Chunk<'s>> {
             .collect();
         order.sort_unstable();
         for (k, chunk) in order.chunks(chunk_size).enumerate() {
-            chunks.push(Chunk {
+            nodes.push(PartNode::Chunk {
                 mesh: &g.mesh,
-                layer: Some(layer),
+                layer,
                 k,
                 tris: chunk.iter().map(|&(_, t)| t).collect(),
                 after: chunk.last().expect("a chunk is not empty").0,
             });
         }
     }
-    chunks
+    nodes
 }
 
 /// The mesh of `triangles` over `vertices` as shown (vertices compacted),
