@@ -97,20 +97,23 @@ pub struct Pictures {
 /// when it fails), none and why.
 pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
     let drawn = Renderer::open().and_then(|r| {
-        let mut problems = problem_pictures(&r, s, margin)?;
+        let problems = problem_pictures(&r, s, margin)?;
         let (list, camera) = overview(s);
         let (w, h) = OVERVIEW_SIZE;
         let overview = r.draw(&list, &camera, w, h)?;
         // Drawn one after another, encoded on every core.
-        let (overview, ()) = rayon::join(
+        let (overview, problems) = rayon::join(
             || png(&overview, w, h),
             || {
                 problems
-                    .par_iter_mut()
-                    .for_each(|(p, rgba)| p.png = png(rgba, SIZE.0, SIZE.1))
+                    .into_par_iter()
+                    .map(|(p, rgba)| Picture {
+                        png: png(&rgba, SIZE.0, SIZE.1),
+                        ..p
+                    })
+                    .collect()
             },
         );
-        let problems = problems.into_iter().map(|(p, _)| p).collect();
         Ok((r.adapter().to_string(), overview, problems))
     });
     match drawn {
@@ -128,7 +131,7 @@ pub fn pictures(s: &ProgramScene, margin: f32) -> Pictures {
 }
 
 /// The first problems of each kind, pictured: each with its pixels
-/// (RGBA), its PNG not encoded yet.
+/// (RGBA), its PNG left to encode.
 fn problem_pictures(
     r: &Renderer,
     s: &ProgramScene,
