@@ -393,8 +393,9 @@ enum PartNode<'s> {
         layer: usize,
         /// The chunk's number within its layer.
         k: usize,
-        /// Its triangles (indices into `mesh`), in the order they appear.
-        tris: Vec<usize>,
+        /// Its triangles (corners indexing `mesh`'s vertices), in the
+        /// order they appear.
+        triangles: Vec<[u32; 3]>,
         /// The move after which the last of them exists.
         after: usize,
     },
@@ -406,10 +407,9 @@ impl PartNode<'_> {
     fn shown(&self, keep: f64) -> (Vec<V3>, Vec<[u32; 3]>) {
         match self {
             PartNode::Platform(m) => shown_mesh(&m.vertices, &m.triangles, 1.0),
-            PartNode::Chunk { mesh, tris, .. } => {
-                let triangles: Vec<[u32; 3]> = tris.iter().map(|&t| mesh.triangles[t]).collect();
-                shown_mesh(&mesh.vertices, &triangles, keep)
-            }
+            PartNode::Chunk {
+                mesh, triangles, ..
+            } => shown_mesh(&mesh.vertices, triangles, keep),
         }
     }
 }
@@ -434,7 +434,7 @@ fn part_nodes<'s>(s: &ProgramScene<'s>, chunk_size: usize) -> Vec<PartNode<'s>> 
                 mesh: &g.mesh,
                 layer,
                 k,
-                tris: chunk.iter().map(|&(_, t)| t).collect(),
+                triangles: chunk.iter().map(|&(_, t)| g.mesh.triangles[t]).collect(),
                 after: chunk.last().expect("a chunk is not empty").0,
             });
         }
