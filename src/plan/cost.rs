@@ -118,7 +118,12 @@ impl CostModel {
 
     /// Cost of printing `a → b` over a bead of length `len` (degrees).
     pub fn print_cost(&self, len: f64, a: &Axes, b: &Axes) -> f64 {
-        let r = self.rotation_deg(a, b);
+        self.print_cost_turning(self.rotation_deg(a, b), len, a, b)
+    }
+
+    /// [`CostModel::print_cost`] given its rotation `r`
+    /// ([`CostModel::rotation_deg`] of `a`, `b`): never less than `r`.
+    pub fn print_cost_turning(&self, r: f64, len: f64, a: &Axes, b: &Axes) -> f64 {
         let d = self.dwell(len, a, b);
         if d > 0.0 {
             r + self.omega * self.dwell_weight * d
@@ -130,8 +135,15 @@ impl CostModel {
     /// Cost of a break from `a` to `b` across a bead of length `len`
     /// (degrees).
     pub fn break_cost(&self, len: f64, a: &Axes, b: &Axes) -> f64 {
+        self.rotation_deg(a, b) + self.break_beyond_rotation(len)
+    }
+
+    /// What a break across a bead of length `len` costs beyond its
+    /// rotation (degrees, not negative): its own time and the bead it
+    /// leaves out.
+    pub fn break_beyond_rotation(&self, len: f64) -> f64 {
         let gap = len / self.tip_speed[0];
-        self.rotation_deg(a, b) + self.omega * (self.break_seconds + self.dwell_weight * gap)
+        self.omega * (self.break_seconds + self.dwell_weight * gap)
     }
 }
 

@@ -144,6 +144,7 @@ fn shortest_path_with(
     let mut from: Vec<Vec<(usize, bool)>> = vec![vec![(0, false); configs[0].len()]];
     for i in 1..configs.len() {
         let len = lens[i - 1];
+        let beyond = cm.break_beyond_rotation(len);
         let mut ci = Vec::with_capacity(configs[i].len());
         let mut fi = Vec::with_capacity(configs[i].len());
         for (j, b) in configs[i].iter().enumerate() {
@@ -154,16 +155,24 @@ fn shortest_path_with(
                 continue;
             }
             for (k, a) in configs[i - 1].iter().enumerate() {
-                if cost[k] == f64::INFINITY {
+                let before = cost[k];
+                if before == f64::INFINITY {
                     continue; // Dead, or not reachable.
                 }
-                let c = cost[k] + cm.break_cost(len, a, b);
+                // Neither move costs less than its rotation: a node that
+                // cannot reach the best that way is passed over before
+                // the dwell and the blocked edges are looked up.
+                let r = cm.rotation_deg(a, b);
+                if before + r > best.0 {
+                    continue;
+                }
+                let c = before + (r + beyond);
                 if c < best.0 {
                     best = (c, (k, true));
                 }
-                if !blocked(i, k, j) {
-                    let c = cost[k] + cm.print_cost(len, a, b);
-                    if c <= best.0 {
+                if before + r <= best.0 {
+                    let c = before + cm.print_cost_turning(r, len, a, b);
+                    if c <= best.0 && !blocked(i, k, j) {
                         best = (c, (k, false));
                     }
                 }
@@ -410,6 +419,124 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The DP without the pruning: every pair of nodes costed both ways.
+    fn unpruned(g: SectionGraph, blocked: &EdgeSet) -> Path {
+        let (configs, cm) = (g.configs, g.cost);
+        let mut cost: Vec<f64> = (0..configs[0].len())
+            .map(|j| if (g.live)(0, j) { 0.0 } else { f64::INFINITY })
+            .collect();
+        let mut from = vec![vec![(0, false); configs[0].len()]];
+        for i in 1..configs.len() {
+            let len = g.lens[i - 1];
+            let mut ci = Vec::new();
+            let mut fi = Vec::new();
+            for (j, b) in configs[i].iter().enumerate() {
+                let mut best = (f64::INFINITY, (0, true));
+                for (k, a) in configs[i - 1].iter().enumerate() {
+                    if !(g.live)(i, j) || cost[k] == f64::INFINITY {
+                        continue;
+                    }
+                    let c = cost[k] + cm.break_cost(len, a, b);
+                    if c < best.0 {
+                        best = (c, (k, true));
+                    }
+                    let c = cost[k] + cm.print_cost(len, a, b);
+                    if !blocked.contains(&(i, k, j)) && c <= best.0 {
+                        best = (c, (k, false));
+                    }
+                }
+                ci.push(best.0);
+                fi.push(best.1);
+            }
+            cost = ci;
+            from.push(fi);
+        }
+        let (mut j, total) =
+            cost.iter().enumerate().fold(
+                (0, f64::INFINITY),
+                |acc, (k, &c)| {
+                    if c < acc.1 {
+                        (k, c)
+                    } else {
+                        acc
+                    }
+                },
+            );
+        let mut nodes = vec![0; configs.len()];
+        let mut breaks = vec![false; configs.len()];
+        for i in (0..configs.len()).rev() {
+            nodes[i] = j;
+            if i > 0 {
+                (j, breaks[i]) = from[i][j];
+            }
+        }
+        Path {
+            nodes,
+            breaks,
+            cost: total,
+        }
+    }
+
+    /// Passing over the nodes whose rotation alone exceeds the best leaves
+    /// the path node for node what costing every pair gives, ties
+    /// included: columns repeat configurations, turn a whole way round (a
+    /// free C's rotation is 0 to its twin) and keep nodes that dwell.
+    #[test]
+    fn pruning_keeps_the_unpruned_path_ties_included() {
+        let m = Machine::default();
+        let cm = CostModel::new(&m, m.feed, m.tip_speed, 10.0);
+        let mut uniform = crate::geometry::xorshift(0x0d0e_5eed_0000_0042);
+        for _ in 0..300 {
+            let n = 2 + (uniform() * 12.0) as usize;
+            let pool: Vec<(f64, f64)> = (0..4)
+                .map(|_| (uniform() * 2.0 - 1.0, uniform() * 6.2 - 3.1))
+                .collect();
+            let cols: Vec<Vec<Axes>> = (0..n)
+                .map(|i| {
+                    (0..1 + (uniform() * 8.0) as usize)
+                        .map(|_| {
+                            let (tilt, c) = pool[(uniform() * 4.0) as usize];
+                            let turn = if uniform() < 0.2 {
+                                std::f64::consts::TAU
+                            } else {
+                                0.0
+                            };
+                            m.axes_at([10.0 + 0.6 * i as f64, 2.0, 45.0], (tilt, c + turn))
+                        })
+                        .collect()
+                })
+                .collect();
+            let lens: Vec<f64> = (0..n).map(|_| 0.05 + uniform() * 2.0).collect();
+            let dead: Vec<Vec<bool>> = cols
+                .iter()
+                .map(|c| {
+                    (0..c.len())
+                        .map(|j| j + 1 < c.len() && uniform() < 0.2)
+                        .collect()
+                })
+                .collect();
+            let live = |i: usize, j: usize| !dead[i][j];
+            let g = SectionGraph {
+                configs: &cols,
+                lens: &lens,
+                cost: &cm,
+                live: &live,
+            };
+            let mut edges = KnownEdges::default();
+            for i in 1..n {
+                for k in 0..cols[i - 1].len() {
+                    for j in 0..cols[i].len() {
+                        if uniform() < 0.2 {
+                            edges.blocked.insert((i, k, j));
+                        }
+                    }
+                }
+            }
+            let p = shortest_path(g, &edges);
+            assert_eq!(p, unpruned(g, &edges.blocked));
         }
     }
 
