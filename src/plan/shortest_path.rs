@@ -282,6 +282,29 @@ mod tests {
     use super::*;
     use crate::kinematics::Machine;
 
+    /// Each node found colliding with probability `p`, every column
+    /// keeping its last one.
+    fn random_dead(cols: &[Vec<Axes>], p: f64, rnd: &mut impl FnMut() -> f64) -> Vec<Vec<bool>> {
+        cols.iter()
+            .map(|c| (0..c.len()).map(|j| j + 1 < c.len() && rnd() < p).collect())
+            .collect()
+    }
+
+    /// Each printing edge blocked with probability `p`.
+    fn random_blocked(cols: &[Vec<Axes>], p: f64, rnd: &mut impl FnMut() -> f64) -> EdgeSet {
+        let mut blocked = EdgeSet::default();
+        for i in 1..cols.len() {
+            for k in 0..cols[i - 1].len() {
+                for j in 0..cols[i].len() {
+                    if rnd() < p {
+                        blocked.insert((i, k, j));
+                    }
+                }
+            }
+        }
+        blocked
+    }
+
     fn brute(g: SectionGraph, blocked: &EdgeSet) -> f64 {
         fn go(g: SectionGraph, blocked: &EdgeSet, i: usize, prev: usize, acc: f64, best: &mut f64) {
             if i == g.configs.len() {
@@ -335,16 +358,8 @@ mod tests {
                 })
                 .collect();
             let lens: Vec<f64> = (0..n).map(|_| rnd() * 2.0).collect();
-            // A quarter of the nodes found colliding, each column keeping
-            // its last one.
-            let dead: Vec<Vec<bool>> = cols
-                .iter()
-                .map(|c| {
-                    (0..c.len())
-                        .map(|j| j + 1 < c.len() && rnd() < 0.25)
-                        .collect()
-                })
-                .collect();
+            // A quarter of the nodes found colliding.
+            let dead = random_dead(&cols, 0.25, &mut rnd);
             let live = |i: usize, j: usize| !dead[i][j];
             let g = SectionGraph {
                 configs: &cols,
@@ -352,16 +367,7 @@ mod tests {
                 cost: &cm,
                 live: &live,
             };
-            let mut blocked = EdgeSet::default();
-            for i in 1..n {
-                for k in 0..cols[i - 1].len() {
-                    for j in 0..cols[i].len() {
-                        if rnd() < 0.3 {
-                            blocked.insert((i, k, j));
-                        }
-                    }
-                }
-            }
+            let blocked = random_blocked(&cols, 0.3, &mut rnd);
             let edges = KnownEdges {
                 blocked: blocked.clone(),
                 proven: EdgeSet::default(),
@@ -510,14 +516,7 @@ mod tests {
                 })
                 .collect();
             let lens: Vec<f64> = (0..n).map(|_| 0.05 + uniform() * 2.0).collect();
-            let dead: Vec<Vec<bool>> = cols
-                .iter()
-                .map(|c| {
-                    (0..c.len())
-                        .map(|j| j + 1 < c.len() && uniform() < 0.2)
-                        .collect()
-                })
-                .collect();
+            let dead = random_dead(&cols, 0.2, &mut uniform);
             let live = |i: usize, j: usize| !dead[i][j];
             let g = SectionGraph {
                 configs: &cols,
@@ -525,16 +524,10 @@ mod tests {
                 cost: &cm,
                 live: &live,
             };
-            let mut edges = KnownEdges::default();
-            for i in 1..n {
-                for k in 0..cols[i - 1].len() {
-                    for j in 0..cols[i].len() {
-                        if uniform() < 0.2 {
-                            edges.blocked.insert((i, k, j));
-                        }
-                    }
-                }
-            }
+            let edges = KnownEdges {
+                blocked: random_blocked(&cols, 0.2, &mut uniform),
+                proven: EdgeSet::default(),
+            };
             let p = shortest_path(g, &edges);
             assert_eq!(p, unpruned(g, &edges.blocked));
         }
