@@ -131,6 +131,50 @@ fn shortest_path_with(
     live: &dyn Fn(usize, usize) -> bool,
     blocked: &dyn Fn(usize, usize, usize) -> bool,
 ) -> Path {
+    let beyond: Vec<f64> = lens
+        .iter()
+        .map(|&len| cm.break_beyond_rotation(len))
+        .collect();
+    solve_columns(configs, live, |i, j, cost| {
+        let (len, b) = (lens[i - 1], &configs[i][j]);
+        let mut best = (f64::INFINITY, (0, true));
+        for (k, a) in configs[i - 1].iter().enumerate() {
+            let before = cost[k];
+            if before == f64::INFINITY {
+                continue; // Dead, or not reachable.
+            }
+            // Neither move costs less than its rotation: a node that
+            // cannot reach the best that way is passed over before the
+            // dwell and the blocked edges are looked up.
+            let r = cm.rotation_deg(a, b);
+            if before + r > best.0 {
+                continue;
+            }
+            let c = before + (r + beyond[i - 1]);
+            if c < best.0 {
+                best = (c, (k, true));
+            }
+            if before + r <= best.0 {
+                let c = before + cm.print_cost_turning(r, len, a, b);
+                if c <= best.0 && !blocked(i, k, j) {
+                    best = (c, (k, false));
+                }
+            }
+        }
+        best
+    })
+}
+
+/// The dynamic programme over the columns: column 0's live nodes cost
+/// nothing, node `j` of column `i` is entered the way `best_into(i, j,
+/// costs of column i − 1)` finds cheapest (its cost, the node before it,
+/// whether that move is a break), dead nodes not at all; then the path is
+/// followed back from the last column's cheapest node.
+fn solve_columns(
+    configs: &[Vec<Axes>],
+    live: &dyn Fn(usize, usize) -> bool,
+    best_into: impl Fn(usize, usize, &[f64]) -> (f64, (usize, bool)),
+) -> Path {
     if configs.is_empty() {
         return Path {
             nodes: Vec::new(),
@@ -142,55 +186,34 @@ fn shortest_path_with(
         .map(|j| if live(0, j) { 0.0 } else { f64::INFINITY })
         .collect();
     let mut from: Vec<Vec<(usize, bool)>> = vec![vec![(0, false); configs[0].len()]];
-    for i in 1..configs.len() {
-        let len = lens[i - 1];
-        let beyond = cm.break_beyond_rotation(len);
-        let mut ci = Vec::with_capacity(configs[i].len());
-        let mut fi = Vec::with_capacity(configs[i].len());
-        for (j, b) in configs[i].iter().enumerate() {
-            let mut best = (f64::INFINITY, (0, true));
-            if !live(i, j) {
-                ci.push(best.0);
-                fi.push(best.1);
-                continue;
-            }
-            for (k, a) in configs[i - 1].iter().enumerate() {
-                let before = cost[k];
-                if before == f64::INFINITY {
-                    continue; // Dead, or not reachable.
+    for (i, column) in configs.iter().enumerate().skip(1) {
+        let (ci, fi): (Vec<f64>, Vec<(usize, bool)>) = (0..column.len())
+            .map(|j| {
+                if live(i, j) {
+                    best_into(i, j, &cost)
+                } else {
+                    (f64::INFINITY, (0, true))
                 }
-                // Neither move costs less than its rotation: a node that
-                // cannot reach the best that way is passed over before
-                // the dwell and the blocked edges are looked up.
-                let r = cm.rotation_deg(a, b);
-                if before + r > best.0 {
-                    continue;
-                }
-                let c = before + (r + beyond);
-                if c < best.0 {
-                    best = (c, (k, true));
-                }
-                if before + r <= best.0 {
-                    let c = before + cm.print_cost_turning(r, len, a, b);
-                    if c <= best.0 && !blocked(i, k, j) {
-                        best = (c, (k, false));
-                    }
-                }
-            }
-            ci.push(best.0);
-            fi.push(best.1);
-        }
+            })
+            .unzip();
         cost = ci;
         from.push(fi);
     }
+    trace_back(&cost, &from)
+}
+
+/// The path ending at the cheapest node of the last column (`cost`),
+/// followed back through `from` (per column and node: the node before it
+/// and whether the move into it is a break).
+fn trace_back(cost: &[f64], from: &[Vec<(usize, bool)>]) -> Path {
     let (mut j, total) =
         cost.iter().enumerate().fold(
             (0, f64::INFINITY),
             |acc, (k, &c)| if c < acc.1 { (k, c) } else { acc },
         );
-    let mut nodes = vec![0; configs.len()];
-    let mut breaks = vec![false; configs.len()];
-    for i in (0..configs.len()).rev() {
+    let mut nodes = vec![0; from.len()];
+    let mut breaks = vec![false; from.len()];
+    for i in (0..from.len()).rev() {
         nodes[i] = j;
         if i > 0 {
             let (k, br) = from[i][j];
@@ -430,60 +453,24 @@ mod tests {
 
     /// The DP without the pruning: every pair of nodes costed both ways.
     fn unpruned(g: SectionGraph, blocked: &EdgeSet) -> Path {
-        let (configs, cm) = (g.configs, g.cost);
-        let mut cost: Vec<f64> = (0..configs[0].len())
-            .map(|j| if (g.live)(0, j) { 0.0 } else { f64::INFINITY })
-            .collect();
-        let mut from = vec![vec![(0, false); configs[0].len()]];
-        for i in 1..configs.len() {
-            let len = g.lens[i - 1];
-            let mut ci = Vec::new();
-            let mut fi = Vec::new();
-            for (j, b) in configs[i].iter().enumerate() {
-                let mut best = (f64::INFINITY, (0, true));
-                for (k, a) in configs[i - 1].iter().enumerate() {
-                    if !(g.live)(i, j) || cost[k] == f64::INFINITY {
-                        continue;
-                    }
-                    let c = cost[k] + cm.break_cost(len, a, b);
-                    if c < best.0 {
-                        best = (c, (k, true));
-                    }
-                    let c = cost[k] + cm.print_cost(len, a, b);
-                    if !blocked.contains(&(i, k, j)) && c <= best.0 {
-                        best = (c, (k, false));
-                    }
+        solve_columns(g.configs, g.live, |i, j, cost| {
+            let (len, b) = (g.lens[i - 1], &g.configs[i][j]);
+            let mut best = (f64::INFINITY, (0, true));
+            for (k, a) in g.configs[i - 1].iter().enumerate() {
+                if cost[k] == f64::INFINITY {
+                    continue;
                 }
-                ci.push(best.0);
-                fi.push(best.1);
+                let c = cost[k] + g.cost.break_cost(len, a, b);
+                if c < best.0 {
+                    best = (c, (k, true));
+                }
+                let c = cost[k] + g.cost.print_cost(len, a, b);
+                if !blocked.contains(&(i, k, j)) && c <= best.0 {
+                    best = (c, (k, false));
+                }
             }
-            cost = ci;
-            from.push(fi);
-        }
-        let (mut j, total) =
-            cost.iter().enumerate().fold(
-                (0, f64::INFINITY),
-                |acc, (k, &c)| {
-                    if c < acc.1 {
-                        (k, c)
-                    } else {
-                        acc
-                    }
-                },
-            );
-        let mut nodes = vec![0; configs.len()];
-        let mut breaks = vec![false; configs.len()];
-        for i in (0..configs.len()).rev() {
-            nodes[i] = j;
-            if i > 0 {
-                (j, breaks[i]) = from[i][j];
-            }
-        }
-        Path {
-            nodes,
-            breaks,
-            cost: total,
-        }
+            best
+        })
     }
 
     /// Passing over the nodes whose rotation alone exceeds the best leaves
