@@ -131,12 +131,9 @@ fn shortest_path_with(
     live: &dyn Fn(usize, usize) -> bool,
     blocked: &dyn Fn(usize, usize, usize) -> bool,
 ) -> Path {
-    let beyond: Vec<f64> = lens
-        .iter()
-        .map(|&len| cm.break_beyond_rotation(len))
-        .collect();
     solve_columns(configs, live, |i, j, cost| {
         let (len, b) = (lens[i - 1], &configs[i][j]);
+        let beyond = cm.break_beyond_rotation(len);
         let mut best = (f64::INFINITY, (0, true));
         for (k, a) in configs[i - 1].iter().enumerate() {
             let before = cost[k];
@@ -147,14 +144,15 @@ fn shortest_path_with(
             // cannot reach the best that way is passed over before the
             // dwell and the blocked edges are looked up.
             let r = cm.rotation_deg(a, b);
-            if before + r > best.0 {
+            let floor = before + r;
+            if floor > best.0 {
                 continue;
             }
-            let c = before + (r + beyond[i - 1]);
+            let c = before + (r + beyond);
             if c < best.0 {
                 best = (c, (k, true));
             }
-            if before + r <= best.0 {
+            if floor <= best.0 {
                 let c = before + cm.print_cost_turning(r, len, a, b);
                 if c <= best.0 && !blocked(i, k, j) {
                     best = (c, (k, false));
