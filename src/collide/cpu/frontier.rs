@@ -15,8 +15,9 @@
 //! that cut instead of the root: a node skipped as clear by `d` mm at the
 //! last pose is still clear at this one when the head moved less than
 //! `d` minus this query's margin there — a point `ρ` from the old tip
-//! moves, seen from the head, at most `|Δtip| + ‖ΔR‖ ρ` (`‖ΔR‖` bounded by
-//! the Frobenius norm of the difference of the two rotations). Such nodes
+//! moves, seen from the head, at most `|Δtip| + ‖ΔR‖ ρ` (`‖ΔR‖` the
+//! spectral norm of the difference of the two rotations, [`turn_bound`]:
+//! the Frobenius norm over √2). Such nodes
 //! cost a comparison instead of a grid lookup, and the walk down to them
 //! is not repeated; every other cut node is walked again exactly as from
 //! the root. A cut only ever gets finer (a node walked again leaves its
@@ -159,7 +160,7 @@ impl Frontier {
 }
 
 /// How far the tip moved and a bound on how far the rotation turned a
-/// unit vector (the Frobenius norm of the difference), rounded up.
+/// unit vector ([`turn_bound`]), rounded up.
 fn motion(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3]) -> (f32, f32) {
     let mut t = 0.0f32;
     let mut r = 0.0f32;
@@ -172,8 +173,61 @@ fn motion(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3]) -> (f32, f32) {
         }
     }
     // A few ulps for the rounding of the sums and the square roots.
-    let up = 1.0 + 8.0 * f32::EPSILON;
-    (t.sqrt() * up, r.sqrt() * up + 1e-6)
+    let frobenius = r.sqrt() * UP + 1e-6;
+    (t.sqrt() * UP, turn_bound(a, b, frobenius))
+}
+
+/// `1 + 8 ε`: a product or a sum of a few terms rounded up.
+const UP: f32 = 1.0 + 8.0 * f32::EPSILON;
+
+/// A bound on `‖A − B‖₂`, the most the frames `a` and `b` (the queries'
+/// 3×3 parts) move a unit vector apart, given `frobenius ≥ ‖A − B‖_F`.
+///
+/// For rotations `A`, `B`, `A − B = A (I − AᵀB)` and `AᵀB` turns by some
+/// angle `θ`: `I − AᵀB` has the singular values `2 sin(θ/2)` twice and 0,
+/// so `‖A − B‖₂ = ‖A − B‖_F / √2` — the Frobenius norm alone overstates
+/// the turn by √2. The f32 frames are orthogonal only within rounding:
+/// with `Q` the orthogonal matrix nearest `A` (polar decomposition),
+/// `‖A − Q‖_F ≤ e(A) = ‖A Aᵀ − I‖_F` (each singular value `σ` has
+/// `|σ − 1| ≤ |σ² − 1|`), so `‖A − B‖₂ ≤ ‖Q_A − Q_B‖_F / √2 + e(A) +
+/// e(B) ≤ ‖A − B‖_F / √2 + (1 + 1/√2)(e(A) + e(B))` when `Q_AᵀQ_B` is a
+/// rotation (both determinants of one sign). Frames far from orthogonal,
+/// or of opposite handedness, keep the Frobenius norm, which bounds the
+/// spectral norm of any matrix.
+fn turn_bound(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3], frobenius: f32) -> f32 {
+    let (Some((ea, ra)), Some((eb, rb))) = (frame_defect(a), frame_defect(b)) else {
+        return frobenius;
+    };
+    if ra != rb {
+        return frobenius;
+    }
+    let spectral = frobenius * std::f32::consts::FRAC_1_SQRT_2 * UP + 1.7072 * (ea + eb) * UP;
+    spectral.min(frobenius)
+}
+
+/// How far the frame `m` (its 3×3 part) is from orthogonal — `‖M Mᵀ −
+/// I‖_F`, rounded up (each entry of `M Mᵀ` is within a few ulps of 1 in
+/// f32) — and whether it keeps handedness (`det M > 0`); `None` when it
+/// is not near orthogonal (then the sign of a rounded determinant is not
+/// to be trusted either).
+fn frame_defect(m: &[[f32; 4]; 3]) -> Option<(f32, bool)> {
+    let row = |i: usize| [m[i][0], m[i][1], m[i][2]];
+    let mut s = 0.0f32;
+    for i in 0..3 {
+        for j in 0..3 {
+            let (p, q) = (row(i), row(j));
+            let g = p[0] * q[0] + p[1] * q[1] + p[2] * q[2] - if i == j { 1.0 } else { 0.0 };
+            s += g * g;
+        }
+    }
+    let e = s.sqrt() * UP + 2e-6;
+    if e > 0.1 {
+        return None;
+    }
+    let [x, y, z] = [row(0), row(1), row(2)];
+    let det = x[0] * (y[1] * z[2] - y[2] * z[1]) - x[1] * (y[0] * z[2] - y[2] * z[0])
+        + x[2] * (y[0] * z[1] - y[1] * z[0]);
+    Some((e, det > 0.0))
 }
 
 /// Where a walk puts the nodes it stops at: a worker's next cut, or
@@ -295,7 +349,9 @@ fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f3
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::collide::cpu::expand::pose_query;
     use crate::collide::cpu::{exact::pair_hits, traverse};
+    use crate::collide::gpu::wire::GpuMotion;
 
     use crate::default_job::scene;
 
@@ -346,5 +402,151 @@ mod tests {
         }
         assert!(hits > 100 && hits < asked - 100, "{hits} hits of {asked}");
         assert!(f.carried > 5_000, "{} cut nodes carried", f.carried);
+    }
+
+    /// The 3×3 part of a frame, as f64.
+    fn frame_of(m: &[[f32; 4]; 3]) -> [[f64; 3]; 3] {
+        std::array::from_fn(|i| std::array::from_fn(|j| m[i][j] as f64))
+    }
+
+    /// `‖A − B‖₂` of two frames' 3×3 parts, in f64: the square root of
+    /// the largest eigenvalue of `DᵀD` (`D = A − B`), by power iteration
+    /// from each axis (a 3×3 converges long before 200 steps).
+    fn spectral_norm(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3]) -> f64 {
+        let (a, b) = (frame_of(a), frame_of(b));
+        let d: [[f64; 3]; 3] = std::array::from_fn(|i| std::array::from_fn(|j| a[i][j] - b[i][j]));
+        let apply = |v: [f64; 3]| -> [f64; 3] {
+            let w: [f64; 3] = std::array::from_fn(|i| (0..3).map(|k| d[i][k] * v[k]).sum());
+            std::array::from_fn(|j| (0..3).map(|i| d[i][j] * w[i]).sum())
+        };
+        let norm = |v: [f64; 3]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        (0..3)
+            .map(|axis| {
+                let mut v = [0.0; 3];
+                v[axis] = 1.0;
+                let mut lambda: f64 = 0.0;
+                for _ in 0..200 {
+                    let w = apply(v);
+                    let n = norm(w);
+                    if n == 0.0 {
+                        break;
+                    }
+                    lambda = n / norm(v);
+                    v = w.map(|x| x / n);
+                }
+                lambda.sqrt()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// `‖A − B‖_F` in f64.
+    fn frobenius(a: &[[f32; 4]; 3], b: &[[f32; 4]; 3]) -> f64 {
+        let (a, b) = (frame_of(a), frame_of(b));
+        (0..9)
+            .map(|k| (a[k / 3][k % 3] - b[k / 3][k % 3]).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    }
+
+    /// The frame of the rotation by `angle` about the unit `axis`
+    /// (Rodrigues, f64, rounded to f32 as a query holds it).
+    fn rotation(axis: [f64; 3], angle: f64) -> [[f32; 4]; 3] {
+        let (s, c) = angle.sin_cos();
+        let [x, y, z] = axis;
+        let m = [
+            [
+                c + x * x * (1.0 - c),
+                x * y * (1.0 - c) - z * s,
+                x * z * (1.0 - c) + y * s,
+            ],
+            [
+                y * x * (1.0 - c) + z * s,
+                c + y * y * (1.0 - c),
+                y * z * (1.0 - c) - x * s,
+            ],
+            [
+                z * x * (1.0 - c) - y * s,
+                z * y * (1.0 - c) + x * s,
+                c + z * z * (1.0 - c),
+            ],
+        ];
+        std::array::from_fn(|i| [m[i][0] as f32, m[i][1] as f32, m[i][2] as f32, 0.0])
+    }
+
+    /// The frame `m` with its columns scaled by `s` (`M diag(s)`).
+    fn scaled(m: [[f32; 4]; 3], s: [f32; 3]) -> [[f32; 4]; 3] {
+        m.map(|r| [r[0] * s[0], r[1] * s[1], r[2] * s[2], r[3]])
+    }
+
+    /// Between two rotations the turn bound holds (at least the spectral
+    /// norm of their difference) and is the rotations' own: the
+    /// Frobenius norm over √2, not the Frobenius norm. Frames built as
+    /// the queries' are — a rotation in f64 rounded to f32, and the
+    /// products of f32 sines and cosines the motion kernel poses
+    /// samples with — at turns from a sample's 10⁻⁴ rad to a half turn.
+    #[test]
+    fn the_turn_bound_holds_and_is_the_rotations_own() {
+        let mut uniform = crate::geometry::xorshift(0x7e11_0b0d_2024_0001);
+        let motion_frame = |t: f32, c: f32| {
+            let m = GpuMotion {
+                rotary: 2,
+                ..Default::default()
+            };
+            pose_query(&m, [0.0; 3], t, c, 0, 0.0).rows
+        };
+        let mut pairs = Vec::new();
+        for k in 0..2000 {
+            let mut axis = [0.0; 3].map(|_: f64| uniform() - 0.5);
+            let n = axis.iter().map(|x| x * x).sum::<f64>().sqrt();
+            axis = axis.map(|x| x / n);
+            let turn = 10f64.powf(-4.0 + 4.5 * uniform()).min(std::f64::consts::PI);
+            let a = rotation(axis, 6.3 * uniform());
+            let b_axis = if k % 2 == 0 {
+                axis
+            } else {
+                [axis[1], axis[2], axis[0]]
+            };
+            let a_angle = 6.3 * uniform();
+            pairs.push((a, rotation(b_axis, a_angle + turn)));
+            if k % 2 == 0 {
+                let (t, c) = (uniform() as f32 * 1.5, uniform() as f32 * 6.3);
+                let d = turn as f32;
+                pairs.push((motion_frame(t, c), motion_frame(t + 0.3 * d, c + d)));
+            }
+        }
+        for (a, b) in &pairs {
+            let (_, turned) = motion(a, b);
+            let exact = spectral_norm(a, b);
+            assert!(turned as f64 >= exact, "{turned} < {exact}: {a:?} {b:?}");
+            let own = frobenius(a, b) / 2f64.sqrt();
+            assert!(
+                turned as f64 <= own * 1.0001 + 2e-5,
+                "{turned} against {own}"
+            );
+        }
+    }
+
+    /// Frames that are not rotations keep a bound that holds: one
+    /// stretched a little along an axis (its defect counts), one of the
+    /// other handedness (a mirror: `I − Q` then has the singular value
+    /// 2), one far from orthogonal (the Frobenius norm). Each would
+    /// break the rotations' bound.
+    #[test]
+    fn frames_that_are_not_rotations_keep_a_bound_that_holds() {
+        let r = rotation([0.6, 0.0, 0.8], 0.7);
+        let cases = [
+            (r, scaled(r, [1.01, 1.0, 1.0])),
+            (r, scaled(r, [1.0, 1.0, -1.0])),
+            (r, scaled(r, [1.5, 1.0, 1.0])),
+        ];
+        for (a, b) in &cases {
+            let (_, turned) = motion(a, b);
+            let exact = spectral_norm(a, b);
+            assert!(turned as f64 >= exact, "{turned} < {exact}: {b:?}");
+            assert!(
+                frobenius(a, b) / 2f64.sqrt() < exact,
+                "the rotations' bound would break"
+            );
+        }
     }
 }
