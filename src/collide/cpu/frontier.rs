@@ -17,7 +17,8 @@
 //! `d` minus this query's margin there — a point `ρ` from the old tip
 //! moves, seen from the head, at most `|Δtip| + ‖ΔR‖ ρ` (`‖ΔR‖` the
 //! spectral norm of the difference of the two rotations, [`turn_bound`]:
-//! the Frobenius norm over √2). Such nodes
+//! the Frobenius norm over √2). Such nodes, and nodes printed after the
+//! last cutoff when this one is no later (a move's samples share theirs),
 //! cost a comparison instead of a grid lookup, and the walk down to them
 //! is not repeated; every other cut node is walked again exactly as from
 //! the root. A cut only ever gets finer (a node walked again leaves its
@@ -73,7 +74,8 @@ pub fn tri_hits(s: &SceneView, q: &GpuQuery, tri: &GpuTriangle) -> bool {
 }
 
 /// One node of a cut: its index, how far its sphere (or slab) is known
-/// to be from the head (`< 0`: nothing known — walk it again), and the
+/// to be from the head (`< 0`: nothing known — walk it again, unless
+/// [`AFTER_CUTOFF`] and the cutoff has not risen), and the
 /// largest distance of its points from the tip (`|c| + r`, head frame),
 /// both at the cut's pose.
 #[derive(Clone, Copy, Debug)]
@@ -83,16 +85,24 @@ pub(super) struct Cut {
     reach: f32,
 }
 
+/// The `clear` of a cut node printed after its query's cutoff: it stays
+/// so for a query whose cutoff is no later.
+const AFTER_CUTOFF: f32 = -2.0;
+
 /// A worker's last cut and the pose it was found at.
 #[derive(Default)]
 pub struct Frontier {
     rows: Option<[[f32; 4]; 3]>,
+    /// The cutoff of the query the cut was found for.
+    cutoff: u32,
     cut: Vec<Cut>,
     next: Vec<Cut>,
     /// The size of the last cut found from the root.
     from_root: usize,
     /// Cut nodes carried over without a look at the grid, so far.
     carried: u64,
+    /// Of those, nodes printed after the cutoff.
+    carried_after_cutoff: u64,
 }
 
 impl Frontier {
@@ -116,6 +126,7 @@ impl Frontier {
             self.rows = None;
         } else {
             self.rows = Some(q.rows);
+            self.cutoff = q.cutoff;
             std::mem::swap(&mut self.cut, &mut self.next);
         }
         hit
@@ -131,6 +142,12 @@ impl Frontier {
         let (moved, turned) = motion(prev, &q.rows);
         for k in 0..self.cut.len() {
             let e = self.cut[k];
+            if e.clear == AFTER_CUTOFF && q.cutoff <= self.cutoff {
+                self.next.push(e);
+                self.carried += 1;
+                self.carried_after_cutoff += 1;
+                continue;
+            }
             if e.clear >= 0.0 {
                 let d = moved + turned * e.reach;
                 let reach = e.reach + d;
@@ -277,7 +294,11 @@ fn walk(
         let i = stack[sp];
         let node = s.nodes[i as usize];
         if node.min_stamp >= q.cutoff {
-            cut.push(again(i));
+            cut.push(Cut {
+                node: i,
+                clear: AFTER_CUTOFF,
+                reach: 0.0,
+            });
             continue;
         }
         let c = to_head(q, node.center);
@@ -358,10 +379,13 @@ mod tests {
     /// Every verdict from a cut is the walk from the root's, and the
     /// kernels' (their mirrors: the walk's hit, or a pair it hands over
     /// hitting by the exact tests), over the waypoints in print order
-    /// (small steps) at margins and slopes that change from query to
-    /// query, and through jumps: back and forth in the print (the cutoff
-    /// falls as well as rises) and to far poses. And the cut is what saves
-    /// the work: most queries carry nodes over.
+    /// (small steps; each waypoint asked three times, its tip moved a
+    /// little, as a move's samples share a cutoff) at margins and slopes
+    /// that change from query to query, and through jumps: back and forth
+    /// in the print (the cutoff falls as well as rises), to far poses, and
+    /// to the whole part printed.
+    /// And the cut is what saves the work: most queries carry nodes over,
+    /// among them nodes printed after the cutoff.
     #[test]
     fn walks_from_the_last_cut_give_the_roots_verdicts() {
         let scene = scene();
@@ -375,11 +399,19 @@ mod tests {
         for step in 0..6000 {
             g = if step % 500 == 499 {
                 (next() * n as f32) as usize % n
-            } else {
+            } else if step % 3 == 0 {
                 (g + 1) % n
+            } else {
+                g
             };
             let base = scene.waypoint_queries[g];
             let mut q = base.to_gpu();
+            q.rows[0][3] += 0.15 * (step % 3) as f32;
+            if step % 50 == 49 {
+                // Everything printed: the material the last cut left out
+                // as printed later is there now.
+                q.cutoff = u32::MAX;
+            }
             q.margin = [0.0, 0.05, 0.3, 1.0][step % 4];
             q.slope = if step % 3 == 0 { 0.02 * next() } else { 0.0 };
             if step % 7 == 0 {
@@ -402,6 +434,11 @@ mod tests {
         }
         assert!(hits > 100 && hits < asked - 100, "{hits} hits of {asked}");
         assert!(f.carried > 5_000, "{} cut nodes carried", f.carried);
+        assert!(
+            f.carried_after_cutoff > 1_000,
+            "{} cut nodes carried as printed after the cutoff",
+            f.carried_after_cutoff
+        );
     }
 
     /// The 3×3 part of a frame, as f64.
