@@ -152,11 +152,10 @@ fn shortest_path_with(
             if c < best.0 {
                 best = (c, (k, true));
             }
-            if floor <= best.0 {
-                let c = before + cm.print_cost_turning(r, len, a, b);
-                if c <= best.0 && !blocked(i, k, j) {
-                    best = (c, (k, false));
-                }
+            // (The break costs `floor` or more: the best is still no less.)
+            let c = before + cm.print_cost_turning(r, len, a, b);
+            if c <= best.0 && !blocked(i, k, j) {
+                best = (c, (k, false));
             }
         }
         best
