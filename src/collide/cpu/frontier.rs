@@ -23,7 +23,7 @@
 //! is not repeated; every other cut node is walked again exactly as from
 //! the root. A cut only ever gets finer (a node walked again leaves its
 //! children in it, where a walk from the root would now skip their
-//! parent), so once it has grown by half over the last cut found from the
+//! parent), so once it has grown by half over the last free walk's from the
 //! root, the next walk starts from the root again: cuts that are never
 //! reset grow to many times the root's and cost more than they save. A
 //! hit ends the walk early; its cut is what the walk settled, plus the
@@ -100,7 +100,7 @@ pub struct Frontier {
     cutoff: u32,
     cut: Vec<Cut>,
     next: Vec<Cut>,
-    /// The size of the last cut found from the root.
+    /// The size of the last cut a free walk from the root left.
     from_root: usize,
     /// Cut nodes carried over without a look at the grid, so far.
     carried: u64,
