@@ -150,28 +150,21 @@ impl Frontier {
     ) -> Option<u32> {
         let (moved, turned) = motion(prev, &q.rows);
         for k in 0..self.cut.len() {
-            let e = self.cut[k];
-            if e.clear == AFTER_CUTOFF && q.cutoff <= self.cutoff {
+            let e = self.cut[k].seen_from(q, self.cutoff, moved, turned);
+            if e.clear == AFTER_CUTOFF {
                 self.next.push(e);
                 self.carried += 1;
                 self.carried_after_cutoff += 1;
                 continue;
             }
             if e.clear >= 0.0 {
-                let d = moved + turned * e.reach;
-                let reach = e.reach + d;
                 let margin = if q.slope > 0.0 {
-                    q.margin + q.slope * reach
+                    q.margin + q.slope * e.reach
                 } else {
                     q.margin
                 };
-                let clear = e.clear - d;
-                if clear - s.head.grid_slack > margin {
-                    self.next.push(Cut {
-                        node: e.node,
-                        clear,
-                        reach,
-                    });
+                if e.clear - s.head.grid_slack > margin {
+                    self.next.push(e);
                     self.carried += 1;
                     continue;
                 }
@@ -190,9 +183,12 @@ impl Frontier {
 
 impl Cut {
     /// This node of the cut found at the last query's pose (its cutoff
-    /// `cutoff`), unlooked at, as a node of a cut at `q`'s, the head
-    /// having moved `moved` and turned `turned` in between: what it
-    /// knows still holds, less the motion.
+    /// `cutoff`) as a node of a cut at `q`'s, the head having moved
+    /// `moved` and turned `turned` in between: what it knows still holds,
+    /// less the motion. A walk from the cut carries it so when that
+    /// leaves it clear by more than `q`'s margin; a hit keeps the nodes
+    /// it did not look at so.
+    #[inline(always)]
     fn seen_from(self, q: &GpuQuery, cutoff: u32, moved: f32, turned: f32) -> Cut {
         if self.clear == AFTER_CUTOFF && q.cutoff <= cutoff {
             return self;
