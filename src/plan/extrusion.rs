@@ -18,7 +18,7 @@ use super::graph::Section;
 use super::setup::{distance, Setup};
 use crate::geometry::point_triangle_distance::point_triangle_distance;
 use crate::kinematics::round_written;
-use crate::scene::slab::{oct_decode, unpack_snorm2x16};
+use crate::scene::slab::Slab;
 use crate::scene::{bvh, cutoff, GpuPartNode, Scene};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
@@ -146,27 +146,6 @@ struct Below<'a> {
     /// ([`crate::scene::bvh`]), so the layers under a waypoint are
     /// subtrees of their own and those past the window cost one visit.
     max_stamp: Vec<u32>,
-    /// Each node's slab, decoded once ([`Slab`]).
-    slabs: Vec<Slab>,
-}
-
-/// A node's slab as [`distance_bound`] reads it: the unit normal and the
-/// interval (in units of the node's radius), decoded from the node's
-/// words once for the stage instead of at every visit (the decode's
-/// square root and division are dearer than the rest of a visit).
-#[derive(Clone, Copy)]
-struct Slab {
-    normal: [f32; 3],
-    range: [f32; 2],
-}
-
-impl Slab {
-    fn of(node: &GpuPartNode) -> Slab {
-        Slab {
-            normal: oct_decode(unpack_snorm2x16(node.slab_normal)),
-            range: unpack_snorm2x16(node.slab_range),
-        }
-    }
 }
 
 impl<'a> Below<'a> {
@@ -176,7 +155,6 @@ impl<'a> Below<'a> {
             layer_start,
             lookback,
             max_stamp: bvh::max_stamps(&scene.part_nodes, &scene.part_tris),
-            slabs: scene.part_nodes.par_iter().map(Slab::of).collect(),
         }
     }
 }
@@ -318,7 +296,12 @@ impl<'b> Walk<'b> {
         if node.min_stamp >= self.cutoff || too_old {
             return None;
         }
-        Some(distance_bound(self.p, node, &below.slabs[i as usize], best))
+        Some(distance_bound(
+            self.p,
+            node,
+            &below.scene.part_slabs[i as usize],
+            best,
+        ))
     }
 
     /// Search the subtree `(root, its bound)`, nearer child first, for a

@@ -173,6 +173,9 @@ impl PartGroup {
 pub struct Scene {
     /// Part BVH (platform + layers) as bounding spheres, GPU-ready.
     pub part_nodes: Vec<GpuPartNode>,
+    /// Each part node's slab, decoded for the CPU's readers
+    /// ([`slab::Slab`]; indexed as `part_nodes`).
+    pub part_slabs: Vec<slab::Slab>,
     /// Part triangles in BVH leaf order.
     pub part_tris: Vec<GpuTriangle>,
     /// The head.
@@ -454,6 +457,7 @@ impl Scene {
         };
         let mut part_nodes = bvh::sphere_nodes(&part);
         slab::add_slabs(&part, &mut part_nodes, &walls);
+        let part_slabs = part_nodes.par_iter().map(slab::Slab::of).collect();
         let part_tris = part.triangles;
 
         let waypoint_queries = toolpath
@@ -469,6 +473,7 @@ impl Scene {
         let waypoint_layers = toolpath.iter().map(|(k, _)| k as u32).collect();
         Ok(Scene {
             part_nodes,
+            part_slabs,
             part_tris,
             head,
             tol,
@@ -494,6 +499,7 @@ impl Scene {
     /// load's 0.88). A backend built on the scene afterwards refuses it.
     pub fn release_bvh(&mut self) {
         self.part_nodes = Vec::new();
+        self.part_slabs = Vec::new();
         self.part_tris = Vec::new();
     }
 

@@ -27,6 +27,32 @@ use super::gpu_types::GpuPartNode;
 use glam::DVec3;
 use rayon::prelude::*;
 
+/// A node's slab as its words decode ([`GpuPartNode::slab_normal`],
+/// [`GpuPartNode::slab_range`]): the unit normal and the interval
+/// `[lo, hi]` in units of the node's radius. The CPU's readers (the cpu
+/// backend's walk, the extrusion's distance search) hold every node's
+/// decoded ([`super::Scene::part_slabs`]) instead of decoding it at every
+/// visit: the decode's square root and division are dearer than the rest
+/// of a slab test.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Slab {
+    /// The unit normal `n`.
+    pub normal: [f32; 3],
+    /// `[lo, hi]`: the interval of `n · (x − centre)` over the node's
+    /// vertices, as fractions of its radius.
+    pub range: [f32; 2],
+}
+
+impl Slab {
+    /// `node`'s slab, decoded as the kernels decode it.
+    pub fn of(node: &GpuPartNode) -> Slab {
+        Slab {
+            normal: oct_decode(unpack_snorm2x16(node.slab_normal)),
+            range: unpack_snorm2x16(node.slab_range),
+        }
+    }
+}
+
 /// Cells per cube-map face side of the head's support function.
 pub const SUPPORT_SIDE: u32 = 32;
 
@@ -299,6 +325,26 @@ mod tests {
 
     fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
         DVec3::from(a).dot(DVec3::from(b))
+    }
+
+    /// A built scene holds every node's slab decoded, bit for bit as the
+    /// kernels decode its words, and frees them with the BVH.
+    #[test]
+    fn the_scene_holds_each_nodes_slab_decoded_until_its_bvh_goes() {
+        let mut scene = crate::default_job::scene();
+        assert_eq!(scene.part_slabs.len(), scene.part_nodes.len());
+        let bits = |s: &Slab| (s.normal.map(f32::to_bits), s.range.map(f32::to_bits));
+        let mut thin = 0;
+        for (node, slab) in scene.part_nodes.iter().zip(&scene.part_slabs) {
+            let normal = oct_decode(unpack_snorm2x16(node.slab_normal));
+            let range = unpack_snorm2x16(node.slab_range);
+            assert_eq!(bits(slab), bits(&Slab { normal, range }));
+            thin += (range[1] - range[0] < 0.5) as usize;
+        }
+        // Slabs that the walk tests (thinner than half the radius) are there.
+        assert!(thin > scene.part_nodes.len() / 4, "{thin}");
+        scene.release_bvh();
+        assert!(scene.part_slabs.is_empty());
     }
 
     fn unit(v: [f64; 3]) -> [f64; 3] {

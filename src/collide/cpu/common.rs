@@ -22,7 +22,7 @@ use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, S
 
 /// Twins of `oct_decode` (`collide_common.wgsl`) and of WGSL's
 /// `unpack2x16snorm`, defined beside the scene's encoder.
-pub use crate::scene::slab::{oct_decode, unpack_snorm2x16};
+pub use crate::scene::slab::{oct_decode, unpack_snorm2x16, Slab};
 /// `SUPPORT_SIDE` and `STACK_SIZE` of `collide_common.wgsl`, defined with
 /// the buffers they size.
 pub use crate::scene::{gpu_types::STACK_SIZE, slab::SUPPORT_SIDE};
@@ -46,6 +46,9 @@ pub struct SceneView<'a> {
     pub head_ray_tris: &'a [GpuTriangle],
     /// Head distance grid.
     pub grid: &'a [f32],
+    /// Part nodes' slabs, decoded (no twin: the kernels decode the
+    /// node's words where they test them; the values are the same).
+    pub slabs: &'a [Slab],
 }
 
 impl<'a> SceneView<'a> {
@@ -59,6 +62,7 @@ impl<'a> SceneView<'a> {
             head_tris: &scene.head.triangles,
             head_ray_tris: &scene.head.ray_triangles,
             grid: &scene.head.grid,
+            slabs: &scene.part_slabs,
         }
     }
 }
@@ -219,11 +223,24 @@ pub fn slab_clear(
 /// Twin: `slab_gap` (`collide_common.wgsl`).
 #[inline(always)]
 pub fn slab_gap(h: &GpuHeadParams, grid: &[f32], q: &GpuQuery, node: &GpuPartNode) -> f32 {
-    let [lo, hi] = unpack_snorm2x16(node.slab_range);
+    slab_gap_of(h, grid, q, node, &Slab::of(node))
+}
+
+/// [`slab_gap`] with the node's slab decoded beforehand (the cpu
+/// backend's walk reads [`SceneView::slabs`]).
+#[inline(always)]
+pub fn slab_gap_of(
+    h: &GpuHeadParams,
+    grid: &[f32],
+    q: &GpuQuery,
+    node: &GpuPartNode,
+    slab: &Slab,
+) -> f32 {
+    let [lo, hi] = slab.range;
     if hi - lo >= 0.5 {
         return -1.0;
     }
-    let n = oct_decode(unpack_snorm2x16(node.slab_normal));
+    let n = slab.normal;
     // The node's interval along n from the tip (part frame) ...
     let o = n[0] * (node.center[0] - q.rows[0][3])
         + n[1] * (node.center[1] - q.rows[1][3])
@@ -279,18 +296,32 @@ pub fn node_hull_gap(
     node: &GpuPartNode,
     c: V3,
 ) -> f32 {
+    node_hull_gap_of(h, grid, q, node, &Slab::of(node), c)
+}
+
+/// [`node_hull_gap`] with the node's slab decoded beforehand (the cpu
+/// backend's walk reads [`SceneView::slabs`]).
+#[inline(always)]
+pub fn node_hull_gap_of(
+    h: &GpuHeadParams,
+    grid: &[f32],
+    q: &GpuQuery,
+    node: &GpuPartNode,
+    slab: &Slab,
+    c: V3,
+) -> f32 {
     let Some(k) = hull_plane_at(h, c) else {
         return -1.0;
     };
     let n = [grid[k], grid[k + 1], grid[k + 2]];
     // The slab's normal in the head frame, and its interval in mm.
-    let m = oct_decode(unpack_snorm2x16(node.slab_normal));
+    let m = slab.normal;
     let mh = [
         q.rows[0][0] * m[0] + q.rows[0][1] * m[1] + q.rows[0][2] * m[2],
         q.rows[1][0] * m[0] + q.rows[1][1] * m[1] + q.rows[1][2] * m[2],
         q.rows[2][0] * m[0] + q.rows[2][1] * m[1] + q.rows[2][2] * m[2],
     ];
-    let [lo, hi] = unpack_snorm2x16(node.slab_range);
+    let [lo, hi] = slab.range;
     let r = node.radius;
     let alpha = dot(n, mh).clamp(-1.0, 1.0);
     let beta = (1.0 - alpha * alpha + 1e-6).sqrt();

@@ -32,7 +32,7 @@
 //! otherwise start from the root: a third of the columns' work).
 
 use super::common::{
-    grid_sample, head_tri, node_hull_gap, slab_gap, sphere_margin, to_head, tri_hits_exact,
+    grid_sample, head_tri, node_hull_gap_of, slab_gap_of, sphere_margin, to_head, tri_hits_exact,
     SceneView, STACK_SIZE,
 };
 use crate::geometry::{length, V3};
@@ -348,12 +348,12 @@ fn walk(
         let clear = if clear - s.head.grid_slack > margin {
             clear
         } else {
-            slab_gap(s.head, s.grid, q, &node)
+            slab_gap_of(s.head, s.grid, q, &node, &s.slabs[i as usize])
         };
         let clear = if clear - s.head.grid_slack > margin {
             clear
         } else {
-            node_hull_gap(s.head, s.grid, q, &node, c)
+            node_hull_gap_of(s.head, s.grid, q, &node, &s.slabs[i as usize], c)
         };
         if clear - s.head.grid_slack > margin {
             cut.push(Cut {
