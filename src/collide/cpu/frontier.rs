@@ -315,6 +315,10 @@ impl CutSink for NoCut {
 /// is a hit ([`NO_TRIANGLE`]); a leaf's existing triangles are tested on
 /// the spot ([`leaf_hit`]). The first hit ends the walk; until then what
 /// it stops at goes to `cut`.
+// Inlined: `Frontier::first_hit` calls it once for each cut node it walks
+// again (74 a query on dome_cut tilted 50°), and a call's set-up of the
+// query and the scene was 8 % of the graph's instructions.
+#[inline(always)]
 fn walk(
     s: &SceneView,
     q: &GpuQuery,
