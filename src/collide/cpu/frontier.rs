@@ -110,6 +110,8 @@ pub struct Frontier {
     after_hit: u64,
     /// Whether the last query hit.
     hit: bool,
+    /// Queries asked of it.
+    walks: u64,
 }
 
 impl Frontier {
@@ -135,10 +137,17 @@ impl Frontier {
             }
         };
         self.hit = hit.is_some();
+        self.walks += 1;
         self.rows = Some(q.rows);
         self.cutoff = q.cutoff;
         std::mem::swap(&mut self.cut, &mut self.next);
         hit
+    }
+
+    /// Queries asked of it so far.
+    #[cfg(test)]
+    pub(super) fn walks(&self) -> u64 {
+        self.walks
     }
 
     fn walk_cut(
