@@ -410,6 +410,9 @@ fn keep_unwalked(cut: &mut impl CutSink, at: u32, stack: &[u32]) {
 /// head, and a lower bound on its distance from the head when it lies
 /// outside (`v − |c − centre| − r`, or the head box's distance beyond
 /// the grids; negative when nothing is known).
+// Inlined as the walk is: once a node visit, 1.7 % of the graph's
+// instructions as a call.
+#[inline(always)]
 fn sphere_clearance(h: &GpuHeadParams, grid: &[f32], c: V3, r: f32) -> (bool, f32) {
     let g = grid_sample(h, grid, c);
     let (v, Some((ijk, origin, cell))) = (g.v, g.cell) else {
