@@ -490,7 +490,7 @@ impl Scene {
         self.part_tris.len()
     }
 
-    /// Free the part's BVH (its nodes and its triangles in leaf order),
+    /// Free the part's BVH (its nodes, their slabs and its triangles in leaf order),
     /// which only the evaluators read, once every backend on the scene is
     /// gone (the borrow checker sees to it): what is left draws the part
     /// and reports on it (`groups`, the head). `plan` releases it before

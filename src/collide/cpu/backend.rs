@@ -127,8 +127,6 @@ pub fn witness_hits(s: &SceneView, q: &GpuQuery, t: u32) -> bool {
 mod tests {
     use super::*;
 
-    /// A scene whose BVH was released (`plan` does so before its report)
-    /// is refused, not walked as if it held no part.
     /// A worker tries its witnesses only after a hit: a query that a
     /// triangle of its last hit decides is answered without a walk right
     /// after that hit, and walked after a free query. The verdicts are
@@ -165,6 +163,8 @@ mod tests {
         assert!(checked > 5, "{checked} waypoints");
     }
 
+    /// A scene whose BVH was released (`plan` does so before its report)
+    /// is refused, not walked as if it held no part.
     #[test]
     #[should_panic(expected = "released")]
     fn a_scene_without_its_bvh_is_refused() {

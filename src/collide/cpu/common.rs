@@ -18,11 +18,12 @@ use crate::geometry::point_in_mesh::ray_crosses;
 use crate::geometry::tri_tri::TriPlane;
 use crate::geometry::tri_tri_distance::{plane_separates, tri_tri_closer_than};
 use crate::geometry::{dot, length, sub, vmax, vmin, V3};
+use crate::scene::slab::Slab;
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 
 /// Twins of `oct_decode` (`collide_common.wgsl`) and of WGSL's
 /// `unpack2x16snorm`, defined beside the scene's encoder.
-pub use crate::scene::slab::{oct_decode, unpack_snorm2x16, Slab};
+pub use crate::scene::slab::{oct_decode, unpack_snorm2x16};
 /// `SUPPORT_SIDE` and `STACK_SIZE` of `collide_common.wgsl`, defined with
 /// the buffers they size.
 pub use crate::scene::{gpu_types::STACK_SIZE, slab::SUPPORT_SIDE};
