@@ -50,6 +50,9 @@ pub struct SceneView<'a> {
     /// Part nodes' slabs, decoded (no twin: the kernels decode the
     /// node's words where they test them; the values are the same).
     pub slabs: &'a [Slab],
+    /// Part triangles' bounding spheres (no twin: only the cpu walk
+    /// reads them, [`crate::scene::Scene::part_tri_spheres`]).
+    pub tri_spheres: &'a [[f32; 4]],
 }
 
 impl<'a> SceneView<'a> {
@@ -64,6 +67,7 @@ impl<'a> SceneView<'a> {
             head_ray_tris: &scene.head.ray_triangles,
             grid: &scene.head.grid,
             slabs: &scene.part_slabs,
+            tri_spheres: &scene.part_tri_spheres,
         }
     }
 }
