@@ -51,6 +51,10 @@ pub struct Head {
     /// ([`GpuHeadParams::far_offset`], [`GpuHeadParams::support_offset`],
     /// [`GpuHeadParams::plane_offset`]).
     pub grid: Vec<f32>,
+    /// The support map's words decoded, the bounds of `h(u)` and `h(−u)`
+    /// per cell, for the cpu walk ([`Head::decoded_support`]; not cached:
+    /// it is the grid's words read).
+    pub support: Vec<[f32; 2]>,
 }
 
 /// How finely to build the head's data.
@@ -100,9 +104,36 @@ impl Head {
             triangles,
             ray_triangles,
             grid,
+            support: Vec::new(),
         };
+        head.support = head
+            .decoded_support()
+            .expect("the grid buffer holds the support map");
         head.set_tol(tol);
         Ok(head)
+    }
+
+    /// The support map's words ([`super::slab::support_pairs`]) as the
+    /// kernels unpack them: each IEEE half converted exactly, the word's
+    /// low half `h(u)`'s bound, its high half `h(−u)`'s. The walk reads a
+    /// decoded pair instead of converting two halves a slab test. `None`
+    /// when the grid is too short to hold the map (a damaged cache entry).
+    pub fn decoded_support(&self) -> Option<Vec<[f32; 2]>> {
+        let start = self.params.support_offset as usize;
+        let cells = (6 * super::slab::SUPPORT_SIDE * super::slab::SUPPORT_SIDE) as usize;
+        let words = self.grid.get(start..start.checked_add(cells)?)?;
+        Some(
+            words
+                .iter()
+                .map(|w| {
+                    let bits = w.to_bits();
+                    [
+                        half::f16::from_bits(bits as u16).to_f32(),
+                        half::f16::from_bits((bits >> 16) as u16).to_f32(),
+                    ]
+                })
+                .collect(),
+        )
     }
 
     /// Apply the scene's contact tolerance `tol` (mm): the only part of
@@ -522,6 +553,27 @@ mod tests {
     use crate::collide::brute::mesh_distance64;
     use crate::collide::cpu::classify;
     use crate::default_job::cone_head;
+
+    /// The decoded support map is every word of the grid's map as the
+    /// kernels unpack it (`support_pair`, their twin), bit for bit, in
+    /// cell order; a grid too short to hold the map has none.
+    #[test]
+    fn the_decoded_support_map_is_the_kernels_reading_of_each_word() {
+        let mut head =
+            Head::build(&cone_head(5.0, 5.0, 12.0, 24), &HeadConfig::default(), 1e-5).unwrap();
+        let start = head.params.support_offset as usize;
+        let cells = (6 * super::super::slab::SUPPORT_SIDE.pow(2)) as usize;
+        assert_eq!(head.support.len(), cells);
+        let mut sides_differ = 0;
+        for (i, pair) in head.support.iter().enumerate() {
+            let word = crate::collide::cpu::support_pair(head.grid[start + i]);
+            assert_eq!(pair.map(f32::to_bits), word.map(f32::to_bits), "cell {i}");
+            sides_differ += (pair[0] != pair[1]) as usize;
+        }
+        assert!(sides_differ > cells / 2, "{sides_differ} cells with h(u) ≠ h(−u)");
+        head.grid.truncate(start + cells - 1);
+        assert!(head.decoded_support().is_none());
+    }
 
     /// Every far cell outside the head's box holds the exact distance from
     /// its centre (the BVH search against a plain loop), so the bound

@@ -142,7 +142,7 @@ fn decode(bytes: &[u8], input: &[u8]) -> Option<Head> {
     let vertices = r.vec::<V3>()?;
     let triangles = r.vec::<[u32; 3]>()?;
     let params = *r.vec::<GpuHeadParams>()?.first()?;
-    let head = Head {
+    let mut head = Head {
         mesh: Mesh {
             vertices,
             triangles,
@@ -152,8 +152,13 @@ fn decode(bytes: &[u8], input: &[u8]) -> Option<Head> {
         triangles: r.vec::<GpuTriangle>()?,
         ray_triangles: r.vec::<GpuTriangle>()?,
         grid: r.vec::<f32>()?,
+        support: Vec::new(),
     };
-    r.0.is_empty().then_some(head)
+    if !r.0.is_empty() {
+        return None;
+    }
+    head.support = head.decoded_support()?;
+    Some(head)
 }
 
 /// Append `items` with their count.

@@ -53,6 +53,10 @@ pub struct SceneView<'a> {
     /// Part triangles' bounding spheres (no twin: only the cpu walk
     /// reads them, [`crate::scene::Scene::part_tri_spheres`]).
     pub tri_spheres: &'a [[f32; 4]],
+    /// The head's support map, its words decoded (no twin: the kernels
+    /// unpack the word they read, [`support_pair`];
+    /// [`crate::scene::Head::support`]).
+    pub support: &'a [[f32; 2]],
 }
 
 impl<'a> SceneView<'a> {
@@ -68,6 +72,7 @@ impl<'a> SceneView<'a> {
             grid: &scene.head.grid,
             slabs: &scene.part_slabs,
             tri_spheres: &scene.part_tri_spheres,
+            support: &scene.head.support,
         }
     }
 }
@@ -228,18 +233,27 @@ pub fn slab_clear(
 /// Twin: `slab_gap` (`collide_common.wgsl`).
 #[inline(always)]
 pub fn slab_gap(h: &GpuHeadParams, grid: &[f32], q: &GpuQuery, node: &GpuPartNode) -> f32 {
-    slab_gap_of(h, grid, q, node, &Slab::of(node))
+    slab_gap_by(q, node, &Slab::of(node), |cell| {
+        support_pair(grid[(h.support_offset + cell) as usize])
+    })
 }
 
-/// [`slab_gap`] with the node's slab decoded beforehand (the cpu
-/// backend's walk reads [`SceneView::slabs`]).
+/// [`slab_gap`] with the node's slab and the support map's words decoded
+/// beforehand (the cpu backend's walk reads [`SceneView::slabs`] and
+/// [`SceneView::support`]).
 #[inline(always)]
-pub fn slab_gap_of(
-    h: &GpuHeadParams,
-    grid: &[f32],
+pub fn slab_gap_of(support: &[[f32; 2]], q: &GpuQuery, node: &GpuPartNode, slab: &Slab) -> f32 {
+    slab_gap_by(q, node, slab, |cell| support[cell as usize])
+}
+
+/// [`slab_gap`] of `slab`, `pair(cell)` the bounds of `h(u)` and `h(−u)`
+/// of the support map's cell `cell` ([`support_cell`]).
+#[inline(always)]
+fn slab_gap_by(
     q: &GpuQuery,
     node: &GpuPartNode,
     slab: &Slab,
+    pair: impl Fn(u32) -> [f32; 2],
 ) -> f32 {
     let [lo, hi] = slab.range;
     if hi - lo >= 0.5 {
@@ -258,7 +272,7 @@ pub fn slab_gap_of(
         q.rows[1][0] * n[0] + q.rows[1][1] * n[1] + q.rows[1][2] * n[2],
         q.rows[2][0] * n[0] + q.rows[2][1] * n[1] + q.rows[2][2] * n[2],
     ];
-    let [above, below] = support_pair(grid[(h.support_offset + support_cell(nh)) as usize]);
+    let [above, below] = pair(support_cell(nh));
     (-below - hi).max(lo - above)
 }
 

@@ -384,7 +384,7 @@ fn walk(
         let clear = if clear - s.head.grid_slack > margin {
             clear
         } else {
-            slab_gap_of(s.head, s.grid, q, &node, &s.slabs[i as usize])
+            slab_gap_of(s.support, q, &node, &s.slabs[i as usize])
         };
         let clear = if clear - s.head.grid_slack > margin {
             clear
