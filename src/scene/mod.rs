@@ -178,10 +178,6 @@ pub struct Scene {
     pub part_slabs: Vec<slab::Slab>,
     /// Part triangles in BVH leaf order.
     pub part_tris: Vec<GpuTriangle>,
-    /// Each part triangle's bounding sphere, `[centre, radius]` (part
-    /// frame; [`bvh::triangle_spheres`]), for the cpu walk's leaves
-    /// (indexed as `part_tris`).
-    pub part_tri_spheres: Vec<[f32; 4]>,
     /// The head.
     pub head: Head,
     /// Contact tolerance (mm), scaled to the scene.
@@ -463,7 +459,6 @@ impl Scene {
         slab::add_slabs(&part, &mut part_nodes, &walls);
         let part_slabs = part_nodes.par_iter().map(slab::Slab::of).collect();
         let part_tris = part.triangles;
-        let part_tri_spheres = bvh::triangle_spheres(&part_tris);
 
         let waypoint_queries = toolpath
             .iter()
@@ -480,7 +475,6 @@ impl Scene {
             part_nodes,
             part_slabs,
             part_tris,
-            part_tri_spheres,
             head,
             tol,
             groups,
@@ -496,8 +490,8 @@ impl Scene {
         self.part_tris.len()
     }
 
-    /// Free the part's BVH (its nodes, their slabs, its triangles in leaf
-    /// order and their spheres), which only the evaluators read, once every backend on the scene is
+    /// Free the part's BVH (its nodes, their slabs and its triangles in leaf order),
+    /// which only the evaluators read, once every backend on the scene is
     /// gone (the borrow checker sees to it): what is left draws the part
     /// and reports on it (`groups`, the head). `plan` releases it before
     /// its report, whose program scene and pictures would otherwise come
@@ -507,7 +501,6 @@ impl Scene {
         self.part_nodes = Vec::new();
         self.part_slabs = Vec::new();
         self.part_tris = Vec::new();
-        self.part_tri_spheres = Vec::new();
     }
 
     /// Whether [`Scene::release_bvh`] has freed the part's BVH (a built

@@ -50,9 +50,6 @@ pub struct SceneView<'a> {
     /// Part nodes' slabs, decoded (no twin: the kernels decode the
     /// node's words where they test them; the values are the same).
     pub slabs: &'a [Slab],
-    /// Part triangles' bounding spheres (no twin: only the cpu walk
-    /// reads them, [`crate::scene::Scene::part_tri_spheres`]).
-    pub tri_spheres: &'a [[f32; 4]],
     /// The head's support map, its words decoded (no twin: the kernels
     /// unpack the word they read, [`support_pair`];
     /// [`crate::scene::Head::support`]).
@@ -71,7 +68,6 @@ impl<'a> SceneView<'a> {
             head_ray_tris: &scene.head.ray_triangles,
             grid: &scene.head.grid,
             slabs: &scene.part_slabs,
-            tri_spheres: &scene.part_tri_spheres,
             support: &scene.head.support,
         }
     }

@@ -55,36 +55,13 @@ pub fn first_hit(s: &SceneView, q: &GpuQuery) -> Option<u32> {
 }
 
 /// The first triangle of the leaf `first..first + count` that exists at
-/// `q`'s cutoff and hits the head: a triangle whose bounding sphere the
-/// grid clears ([`sphere_clears`]) is passed over without moving its
-/// corners into the head frame, the rest get [`tri_hits`].
+/// `q`'s cutoff and hits the head.
 #[inline(always)]
 pub fn leaf_hit(s: &SceneView, q: &GpuQuery, first: u32, count: u32) -> Option<u32> {
     (first..first + count).find(|&t| {
         let tri = &s.tris[t as usize];
-        tri.stamp < q.cutoff
-            && !sphere_clears(s, q, &s.tri_spheres[t as usize])
-            && tri_hits(s, q, tri)
+        tri.stamp < q.cutoff && tri_hits(s, q, tri)
     })
-}
-
-/// Does the grid clear the triangle sphere `[centre, radius]` (part
-/// frame) of the head by more than its margin ([`sphere_margin`], which
-/// is at least the triangle's own, [`super::common::triangle_margin`])?
-/// One point moved into the head frame where [`tri_hits`] moves three,
-/// computes their centroid and reach and reads the grid at it: the same
-/// bound a walk puts on a node, taken with twice the grid's slack, so a
-/// triangle it clears lies farther than its margin from the head by far
-/// more than the f32 rounding of the tests it stands in for, which would
-/// find it clear too (the kernels, which test every leaf triangle, give
-/// the same verdicts: `tests/differential.rs`). On dome_cut tilted 50°
-/// it clears most of the leaf triangles the walk reaches.
-#[inline(always)]
-fn sphere_clears(s: &SceneView, q: &GpuQuery, sphere: &[f32; 4]) -> bool {
-    let c = to_head(q, [sphere[0], sphere[1], sphere[2]]);
-    let r = sphere[3];
-    let (_, clear) = sphere_clearance(s.head, s.grid, c, r);
-    clear - 2.0 * s.head.grid_slack > sphere_margin(q, c, r)
 }
 
 /// One existing part triangle against the head: the grid and the hull
@@ -528,56 +505,6 @@ mod tests {
             f.carried_after_cutoff
         );
         assert!(f.after_hit > 100, "{} walks from a hit's cut", f.after_hit);
-    }
-
-    /// A leaf triangle whose sphere the grid clears is one the full test
-    /// ([`tri_hits`], the kernels' own) finds clear, at margins and slopes,
-    /// tilted and with the tip pushed into the material; and the sphere
-    /// clears most of the triangles near the tip that are clear, so the
-    /// walk's leaves seldom need the full test.
-    #[test]
-    fn a_triangle_its_sphere_clears_is_clear_by_the_full_test() {
-        let scene = scene();
-        let view = SceneView::new(&scene);
-        let mut uniform = crate::geometry::xorshift(0x5eed_1234_abcd_0003);
-        let mut next = || uniform() as f32;
-        let n = scene.waypoint_queries.len();
-        let (mut cleared, mut clear, mut hits) = (0usize, 0usize, 0usize);
-        for step in 0..300 {
-            let g = (next() * n as f32) as usize % n;
-            let mut q = scene.waypoint_queries[g].to_gpu();
-            q.rows[2][3] -= [0.0, 0.2, 1.0][step % 3];
-            q.margin = [0.0, 0.05, 0.3, 1.0][step % 4];
-            q.slope = if step % 5 == 0 { 0.02 * next() } else { 0.0 };
-            if step % 2 == 0 {
-                let a = 0.8 * next();
-                let (c, s) = (a.cos(), a.sin());
-                for row in &mut q.rows {
-                    let (y, z) = (row[1], row[2]);
-                    row[1] = c * y - s * z;
-                    row[2] = s * y + c * z;
-                }
-            }
-            let tip = [q.rows[0][3], q.rows[1][3], q.rows[2][3]];
-            for (tri, sphere) in view.tris.iter().zip(view.tri_spheres) {
-                let d = [sphere[0] - tip[0], sphere[1] - tip[1], sphere[2] - tip[2]];
-                if length(d) > 12.0 {
-                    continue;
-                }
-                let hit = tri_hits(&view, &q, tri);
-                if sphere_clears(&view, &q, sphere) {
-                    assert!(!hit, "query {step}: a triangle its sphere clears hits");
-                    cleared += 1;
-                }
-                clear += !hit as usize;
-                hits += hit as usize;
-            }
-        }
-        assert!(hits > 1_000, "{hits} triangles hit");
-        assert!(
-            cleared * 10 > clear * 9,
-            "{cleared} of {clear} clear triangles cleared"
-        );
     }
 
     /// A query after a hit, walked from the cut the hit left, gives the

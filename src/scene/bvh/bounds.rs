@@ -1,6 +1,6 @@
 //! What each node of a laid-out tree bounds, from the triangles below it:
 //! its box, its smallest and largest stamp, its span of triangles, and the
-//! bounding sphere the part's walk tests; each triangle's sphere.
+//! bounding sphere the part's walk tests.
 
 use super::super::gpu_types::{GpuNode, GpuPartNode, GpuTriangle};
 use super::StampedBvh;
@@ -116,25 +116,6 @@ pub(crate) fn vertices_in(
     bvh.triangles[first as usize..end as usize]
         .iter()
         .flat_map(|t| [t.v0, t.v1, t.v2])
-}
-
-/// Each triangle's bounding sphere, `[centre, radius]`: the centroid
-/// (computed in `f64`, rounded to `f32`) and the farthest corner from it,
-/// rounded up so the sphere always contains the triangle. Indexed as
-/// `tris`; the cpu walk tests a leaf triangle's sphere before moving its
-/// corners into the head frame ([`crate::scene::Scene::part_tri_spheres`]).
-pub fn triangle_spheres(tris: &[GpuTriangle]) -> Vec<[f32; 4]> {
-    tris.par_iter()
-        .map(|t| {
-            let v = [t.v0, t.v1, t.v2].map(|p| p.map(|x| x as f64));
-            let c: [f32; 3] = std::array::from_fn(|k| ((v[0][k] + v[1][k] + v[2][k]) / 3.0) as f32);
-            let r2 = v
-                .iter()
-                .map(|p| (0..3).map(|k| (p[k] - c[k] as f64).powi(2)).sum::<f64>())
-                .fold(0.0f64, f64::max);
-            [c[0], c[1], c[2], (r2.sqrt() as f32).next_up()]
-        })
-        .collect()
 }
 
 /// Subtrees of at most this many triangles get the exact radius; above,

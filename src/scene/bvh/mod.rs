@@ -22,7 +22,7 @@
 mod bounds;
 mod layout;
 
-pub use bounds::{max_stamps, refresh_min_stamps, sphere_nodes, triangle_spheres};
+pub use bounds::{max_stamps, refresh_min_stamps, sphere_nodes};
 pub(crate) use bounds::{triangle_spans, vertices_in};
 
 use super::gpu_types::STACK_SIZE;
@@ -240,38 +240,6 @@ mod tests {
         };
         let err = lay_out(&bvh, rule).unwrap_err().to_string();
         assert!(err.contains("exceeds the traversal stack"), "{err}");
-    }
-
-    /// Each triangle's sphere holds its corners (in f64) and is tight:
-    /// centred on the centroid, its radius the farthest corner's
-    /// distance rounded up by less than a part in 10⁶.
-    #[test]
-    fn a_triangles_sphere_holds_its_corners_and_no_more() {
-        let tris = soup(2000);
-        let spheres = triangle_spheres(&tris);
-        assert_eq!(spheres.len(), tris.len());
-        for (t, s) in tris.iter().zip(&spheres) {
-            let corners = [t.v0, t.v1, t.v2];
-            let far = corners
-                .iter()
-                .map(|v| {
-                    (0..3)
-                        .map(|k| (v[k] as f64 - s[k] as f64).powi(2))
-                        .sum::<f64>()
-                        .sqrt()
-                })
-                .fold(0.0f64, f64::max);
-            assert!(far <= s[3] as f64, "a corner {far} out of radius {}", s[3]);
-            assert!(
-                s[3] as f64 <= far * (1.0 + 1e-6) + 1e-9,
-                "{} for {far}",
-                s[3]
-            );
-            for k in 0..3 {
-                let mean = corners.iter().map(|v| v[k] as f64).sum::<f64>() / 3.0;
-                assert!((s[k] as f64 - mean).abs() <= 1e-5 * mean.abs().max(1.0));
-            }
-        }
     }
 
     /// A soup of small triangles scattered over a box, stamps in a
