@@ -570,7 +570,10 @@ mod tests {
             assert_eq!(pair.map(f32::to_bits), word.map(f32::to_bits), "cell {i}");
             sides_differ += (pair[0] != pair[1]) as usize;
         }
-        assert!(sides_differ > cells / 2, "{sides_differ} cells with h(u) ≠ h(−u)");
+        assert!(
+            sides_differ > cells / 2,
+            "{sides_differ} cells with h(u) ≠ h(−u)"
+        );
         head.grid.truncate(start + cells - 1);
         assert!(head.decoded_support().is_none());
     }

@@ -186,8 +186,16 @@ pub fn support_cell(u: [f32; 3]) -> u32 {
     let face = 2 * k as u32 + if u[k] < 0.0 { 1 } else { 0 };
     let inv = 1.0 / a[k];
     let n = SUPPORT_SIDE as f32;
-    let s = ((u[i] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
-    let t = ((u[j] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
+    // Clamped to [0, n − 1] as `clamp` would, and a NaN (`u` of length 0)
+    // to 0 as the saturating cast takes it: `max` and `min` return the
+    // operand that is a number.
+    let cell = |x: f32| {
+        let x = x.max(0.0).min(n - 1.0);
+        // SAFETY: x is a number in [0, n − 1], its integer part a `u32`.
+        unsafe { x.to_int_unchecked::<u32>() }
+    };
+    let s = cell((u[i] * inv + 1.0) * 0.5 * n);
+    let t = cell((u[j] * inv + 1.0) * 0.5 * n);
     (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
 }
 
@@ -373,11 +381,14 @@ pub fn grid_cell(c: V3, origin: V3, inv_cell: f32, dims: [u32; 3]) -> Option<[u3
     {
         return None;
     }
-    Some([
-        (fx as u32).min(nx - 1),
-        (fy as u32).min(ny - 1),
-        (fz as u32).min(nz - 1),
-    ])
+    // SAFETY: each of fx, fy, fz is now a number in [0, n) for its
+    // grid's count n of cells, a `u32`: its integer part is a `u32`, at
+    // most n − 1, which is what a checked cast and a clamp to n − 1 would
+    // give. Unchecked, the cast is one instruction where the saturating
+    // one spends five on cases already excluded (the walk looks a grid
+    // cell up two or three times a node).
+    let cell = |f: f32| unsafe { f.to_int_unchecked::<u32>() };
+    Some([cell(fx), cell(fy), cell(fz)])
 }
 
 /// Is `slack` positive and larger than the distance from `c` to the centre
@@ -647,6 +658,93 @@ mod tests {
         let out = f();
         FUSED.with(|x| x.set(false));
         out
+    }
+
+    /// The cell lookups' unchecked casts give what checked, clamped casts
+    /// give (the kernels' `u32(…)` of a value clamped in range): a grid
+    /// cell for points inside, on the faces and corners, just outside,
+    /// far off, infinite and NaN; a support cell for directions of every
+    /// sign and size, on the cube's edges and corners, and of length 0
+    /// or NaN.
+    #[test]
+    fn cell_lookups_give_the_checked_casts_cells() {
+        let checked_grid = |c: V3, origin: V3, inv_cell: f32, dims: [u32; 3]| {
+            let f: [f32; 3] = std::array::from_fn(|k| (c[k] - origin[k]) * inv_cell);
+            let inside = (0..3).all(|k| f[k] >= 0.0 && f[k] < dims[k] as f32);
+            inside.then(|| std::array::from_fn(|k| (f[k] as u32).min(dims[k] - 1)))
+        };
+        let checked_support = |u: [f32; 3]| {
+            let a = u.map(f32::abs);
+            let (k, i, j) = if a[0] >= a[1] && a[0] >= a[2] {
+                (0usize, 1usize, 2usize)
+            } else if a[1] >= a[2] {
+                (1, 2, 0)
+            } else {
+                (2, 0, 1)
+            };
+            let face = 2 * k as u32 + (u[k] < 0.0) as u32;
+            let inv = 1.0 / a[k];
+            let n = SUPPORT_SIDE as f32;
+            let s = ((u[i] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
+            let t = ((u[j] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
+            (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
+        };
+        let mut uniform = crate::geometry::xorshift(0x5eed_1234_abcd_0004);
+        let mut next = || uniform() as f32;
+        let (origin, inv_cell, dims) = ([-3.0, -2.0, -5.0], 4.0, [24, 16, 40]);
+        let specials = [
+            0.0,
+            -0.0,
+            1e-30,
+            -1e-30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let (mut inside, mut outside) = (0, 0);
+        for i in 0..20_000 {
+            let mut c: V3 = std::array::from_fn(|k| {
+                origin[k] + (1.4 * next() - 0.2) * dims[k] as f32 / inv_cell
+            });
+            match i % 5 {
+                // On a face or corner of the grid, or of a cell.
+                0 => c[i % 3] = origin[i % 3],
+                1 => c[i % 3] = origin[i % 3] + dims[i % 3] as f32 / inv_cell,
+                2 => c[i % 3] = origin[i % 3] + (i % 7) as f32 / inv_cell,
+                3 => c[i % 3] = specials[i % specials.len()],
+                _ => {}
+            }
+            let want = checked_grid(c, origin, inv_cell, dims);
+            assert_eq!(grid_cell(c, origin, inv_cell, dims), want, "point {c:?}");
+            if want.is_some() {
+                inside += 1
+            } else {
+                outside += 1
+            }
+        }
+        assert!(
+            inside > 5_000 && outside > 5_000,
+            "{inside} inside, {outside} outside"
+        );
+        for i in 0..20_000usize {
+            let scale = 10f32.powi((i % 7) as i32 - 3);
+            let mut u: [f32; 3] = std::array::from_fn(|_| (2.0 * next() - 1.0) * scale);
+            match i % 4 {
+                0 => u[i % 3] = u[(i + 1) % 3],
+                1 => u = [u[0], -u[0], u[0]],
+                2 => u[i % 3] = specials[i % specials.len()],
+                _ => {}
+            }
+            assert_eq!(support_cell(u), checked_support(u), "direction {u:?}");
+        }
+        for u in [
+            [0.0; 3],
+            [f32::NAN; 3],
+            [-0.0, 0.0, -0.0],
+            [1.0, f32::NAN, 0.0],
+        ] {
+            assert_eq!(support_cell(u), checked_support(u), "direction {u:?}");
+        }
     }
 
     /// A GPU may fuse multiply-adds (WGSL allows it; Vulkan drivers do),
