@@ -175,6 +175,24 @@ pub fn classify_sample(h: &GpuHeadParams, g: &GridSample, c: V3, r: f32, margin:
 /// Twin: `support_cell` (`collide_common.wgsl`).
 #[inline(always)]
 pub fn support_cell(u: [f32; 3]) -> u32 {
+    let (face, s, t) = support_face(u);
+    let n = SUPPORT_SIDE as f32;
+    // Clamped to [0, n − 1] as `clamp` would, and a NaN (`u` of length 0)
+    // to 0 as the saturating cast takes it: `max` and `min` return the
+    // operand that is a number.
+    let cell = |x: f32| {
+        let x = x.max(0.0).min(n - 1.0);
+        // SAFETY: x is a number in [0, n − 1], its integer part a `u32`.
+        unsafe { x.to_int_unchecked::<u32>() }
+    };
+    (face * SUPPORT_SIDE + cell(t)) * SUPPORT_SIDE + cell(s)
+}
+
+/// The cube-map face of direction `u` and the position in it, in cells,
+/// before it is clamped to the face and cut to a cell: [`support_cell`]'s
+/// first steps.
+#[inline(always)]
+fn support_face(u: [f32; 3]) -> (u32, f32, f32) {
     let a = [u[0].abs(), u[1].abs(), u[2].abs()];
     let (k, i, j) = if a[0] >= a[1] && a[0] >= a[2] {
         (0usize, 1usize, 2usize)
@@ -186,17 +204,11 @@ pub fn support_cell(u: [f32; 3]) -> u32 {
     let face = 2 * k as u32 + if u[k] < 0.0 { 1 } else { 0 };
     let inv = 1.0 / a[k];
     let n = SUPPORT_SIDE as f32;
-    // Clamped to [0, n − 1] as `clamp` would, and a NaN (`u` of length 0)
-    // to 0 as the saturating cast takes it: `max` and `min` return the
-    // operand that is a number.
-    let cell = |x: f32| {
-        let x = x.max(0.0).min(n - 1.0);
-        // SAFETY: x is a number in [0, n − 1], its integer part a `u32`.
-        unsafe { x.to_int_unchecked::<u32>() }
-    };
-    let s = cell((u[i] * inv + 1.0) * 0.5 * n);
-    let t = cell((u[j] * inv + 1.0) * 0.5 * n);
-    (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
+    (
+        face,
+        (u[i] * inv + 1.0) * 0.5 * n,
+        (u[j] * inv + 1.0) * 0.5 * n,
+    )
 }
 
 /// A word of [`support_pairs`](crate::scene::slab::support_pairs) as the kernels read it (WGSL's
@@ -674,20 +686,10 @@ mod tests {
             inside.then(|| std::array::from_fn(|k| (f[k] as u32).min(dims[k] - 1)))
         };
         let checked_support = |u: [f32; 3]| {
-            let a = u.map(f32::abs);
-            let (k, i, j) = if a[0] >= a[1] && a[0] >= a[2] {
-                (0usize, 1usize, 2usize)
-            } else if a[1] >= a[2] {
-                (1, 2, 0)
-            } else {
-                (2, 0, 1)
-            };
-            let face = 2 * k as u32 + (u[k] < 0.0) as u32;
-            let inv = 1.0 / a[k];
+            let (face, s, t) = support_face(u);
             let n = SUPPORT_SIDE as f32;
-            let s = ((u[i] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
-            let t = ((u[j] * inv + 1.0) * 0.5 * n).clamp(0.0, n - 1.0) as u32;
-            (face * SUPPORT_SIDE + t) * SUPPORT_SIDE + s
+            let cell = |x: f32| x.clamp(0.0, n - 1.0) as u32;
+            (face * SUPPORT_SIDE + cell(t)) * SUPPORT_SIDE + cell(s)
         };
         let mut uniform = crate::geometry::xorshift(0x5eed_1234_abcd_0004);
         let mut next = || uniform() as f32;
