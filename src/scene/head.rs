@@ -52,8 +52,8 @@ pub struct Head {
     /// [`GpuHeadParams::plane_offset`]).
     pub grid: Vec<f32>,
     /// The support map's words decoded, the bounds of `h(u)` and `h(−u)`
-    /// per cell, for the cpu walk ([`Head::decoded_support`]; not cached:
-    /// it is the grid's words read).
+    /// per cell, for the cpu walk (`decoded_support`; not cached: it is
+    /// the grid's words read).
     pub support: Vec<[f32; 2]>,
 }
 
@@ -103,37 +103,12 @@ impl Head {
             nodes,
             triangles,
             ray_triangles,
+            support: decoded_support(&grid, &params)
+                .expect("the grid buffer holds the support map"),
             grid,
-            support: Vec::new(),
         };
-        head.support = head
-            .decoded_support()
-            .expect("the grid buffer holds the support map");
         head.set_tol(tol);
         Ok(head)
-    }
-
-    /// The support map's words ([`super::slab::support_pairs`]) as the
-    /// kernels unpack them: each IEEE half converted exactly, the word's
-    /// low half `h(u)`'s bound, its high half `h(−u)`'s. The walk reads a
-    /// decoded pair instead of converting two halves a slab test. `None`
-    /// when the grid is too short to hold the map (a damaged cache entry).
-    pub fn decoded_support(&self) -> Option<Vec<[f32; 2]>> {
-        let start = self.params.support_offset as usize;
-        let cells = (6 * super::slab::SUPPORT_SIDE * super::slab::SUPPORT_SIDE) as usize;
-        let words = self.grid.get(start..start.checked_add(cells)?)?;
-        Some(
-            words
-                .iter()
-                .map(|w| {
-                    let bits = w.to_bits();
-                    [
-                        half::f16::from_bits(bits as u16).to_f32(),
-                        half::f16::from_bits((bits >> 16) as u16).to_f32(),
-                    ]
-                })
-                .collect(),
-        )
     }
 
     /// Apply the scene's contact tolerance `tol` (mm): the only part of
@@ -289,6 +264,23 @@ fn grid_buffer(
         plane_offset,
     };
     (grid, layout)
+}
+
+/// The support map's words in `grid` ([`super::slab::support_pairs`],
+/// from `params.support_offset`) as the kernels unpack them
+/// ([`super::slab::support_pair`]): the walk reads a decoded pair
+/// instead of converting two halves a slab test. `None` when the grid is
+/// too short to hold the map (a damaged cache entry).
+pub(super) fn decoded_support(grid: &[f32], params: &GpuHeadParams) -> Option<Vec<[f32; 2]>> {
+    let start = params.support_offset as usize;
+    let cells = (6 * super::slab::SUPPORT_SIDE * super::slab::SUPPORT_SIDE) as usize;
+    let words = grid.get(start..start.checked_add(cells)?)?;
+    Some(
+        words
+            .iter()
+            .map(|&w| super::slab::support_pair(w))
+            .collect(),
+    )
 }
 
 /// The head's scalars for the kernels, the tolerance not yet set
@@ -575,7 +567,7 @@ mod tests {
             "{sides_differ} cells with h(u) ≠ h(−u)"
         );
         head.grid.truncate(start + cells - 1);
-        assert!(head.decoded_support().is_none());
+        assert!(decoded_support(&head.grid, &head.params).is_none());
     }
 
     /// Every far cell outside the head's box holds the exact distance from

@@ -16,7 +16,7 @@
 //! plans are the same with or without the cache.
 
 use super::gpu_types::{GpuHeadParams, GpuNode, GpuTriangle};
-use super::head::{Head, HeadConfig};
+use super::head::{decoded_support, Head, HeadConfig};
 use super::SceneError;
 use crate::geometry::{Mesh, V3};
 use bytemuck::Pod;
@@ -142,23 +142,25 @@ fn decode(bytes: &[u8], input: &[u8]) -> Option<Head> {
     let vertices = r.vec::<V3>()?;
     let triangles = r.vec::<[u32; 3]>()?;
     let params = *r.vec::<GpuHeadParams>()?.first()?;
-    let mut head = Head {
+    let nodes = r.vec::<GpuNode>()?;
+    let head_triangles = r.vec::<GpuTriangle>()?;
+    let ray_triangles = r.vec::<GpuTriangle>()?;
+    let grid = r.vec::<f32>()?;
+    if !r.0.is_empty() {
+        return None;
+    }
+    Some(Head {
         mesh: Mesh {
             vertices,
             triangles,
         },
         params,
-        nodes: r.vec::<GpuNode>()?,
-        triangles: r.vec::<GpuTriangle>()?,
-        ray_triangles: r.vec::<GpuTriangle>()?,
-        grid: r.vec::<f32>()?,
-        support: Vec::new(),
-    };
-    if !r.0.is_empty() {
-        return None;
-    }
-    head.support = head.decoded_support()?;
-    Some(head)
+        nodes,
+        triangles: head_triangles,
+        ray_triangles,
+        support: decoded_support(&grid, &params)?,
+        grid,
+    })
 }
 
 /// Append `items` with their count.

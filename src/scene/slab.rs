@@ -237,6 +237,20 @@ pub fn support_pairs(vertices: &[[f32; 3]]) -> Vec<f32> {
         .collect()
 }
 
+/// A word of [`support_pairs`] as the kernels read it (WGSL's
+/// `unpack2x16float`, exact): the bounds of `h(u)` and `h(−u)`.
+///
+/// Twin: WGSL's `unpack2x16float` of `grid_word`, in `slab_gap`
+/// (`collide_common.wgsl`).
+#[inline(always)]
+pub fn support_pair(word: f32) -> [f32; 2] {
+    let w = word.to_bits();
+    [
+        half::f16::from_bits(w as u16).to_f32(),
+        half::f16::from_bits((w >> 16) as u16).to_f32(),
+    ]
+}
+
 /// The bits of the least IEEE half at least `x` (not NaN).
 pub fn half_at_least(x: f32) -> u16 {
     let h = half::f16::from_f32(x);

@@ -21,9 +21,10 @@ use crate::geometry::{dot, length, sub, vmax, vmin, V3};
 use crate::scene::slab::Slab;
 use crate::scene::{GpuHeadParams, GpuNode, GpuPartNode, GpuQuery, GpuTriangle, Scene};
 
-/// Twins of `oct_decode` (`collide_common.wgsl`) and of WGSL's
-/// `unpack2x16snorm`, defined beside the scene's encoder.
-pub use crate::scene::slab::{oct_decode, unpack_snorm2x16};
+/// Twins of `oct_decode` (`collide_common.wgsl`), of WGSL's
+/// `unpack2x16snorm` and of its `unpack2x16float` of a support-map word,
+/// defined beside the scene's encoders.
+pub use crate::scene::slab::{oct_decode, support_pair, unpack_snorm2x16};
 /// `SUPPORT_SIDE` and `STACK_SIZE` of `collide_common.wgsl`, defined with
 /// the buffers they size.
 pub use crate::scene::{gpu_types::STACK_SIZE, slab::SUPPORT_SIDE};
@@ -209,20 +210,6 @@ fn support_face(u: [f32; 3]) -> (u32, f32, f32) {
         (u[i] * inv + 1.0) * 0.5 * n,
         (u[j] * inv + 1.0) * 0.5 * n,
     )
-}
-
-/// A word of [`support_pairs`](crate::scene::slab::support_pairs) as the kernels read it (WGSL's
-/// `unpack2x16float`, exact): the bounds of `h(u)` and `h(−u)`.
-///
-/// Twin: WGSL's `unpack2x16float` of `grid_word`, in `slab_gap`
-/// (`collide_common.wgsl`).
-#[inline(always)]
-pub fn support_pair(word: f32) -> [f32; 2] {
-    let w = word.to_bits();
-    [
-        half::f16::from_bits(w as u16).to_f32(),
-        half::f16::from_bits((w >> 16) as u16).to_f32(),
-    ]
 }
 
 /// Does the node's slab ([`crate::scene::slab`]) lie wholly on one side
